@@ -1,0 +1,250 @@
+//! Signed containment with temporal coherence (the default method).
+//!
+//! Each rod sample remembers the tube segment and sector it was in last frame and walks from
+//! there (a few ring planes at most per frame); the first sample of a rod seeds the next, so even
+//! a fresh frame walks the tube once along the rod. Only when a walk fails does the sample
+//! re-acquire through the tube's BVH. A sample outside the wall keeps its segment: it is a
+//! contact with positive depth however far out it is, and its normal is the wall's.
+
+use super::Emit;
+use crate::aabb::Aabb;
+use crate::bvh::ChainBvh;
+use crate::samples::RodSamples;
+use crate::section::{Axial, Gap, TubeCache};
+use crate::view::TubeView;
+use crate::V3;
+use lumen_proto::contact::{FLAG_NOT_STAR, FLAG_OUTSIDE};
+use lumen_proto::Contact;
+
+/// Ring planes a sample may walk per frame before it re-acquires through the BVH.
+pub const WINDOW: usize = 32;
+
+/// What a sample remembers between frames.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Track {
+    pub seg: u32,
+    pub sector: u16,
+    pub valid: bool,
+}
+
+/// Counters of one frame, for benchmarks and diagnostics.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Samples located by walking from last frame or from their neighbour.
+    pub walked: u32,
+    /// Samples that re-acquired through the BVH.
+    pub reacquired: u32,
+    /// Candidate leaf pairs from BVH traversals.
+    pub candidates: u32,
+}
+
+/// The tube's BVH with conservative leaves (spline bulge + every spoke of both rings), refit at
+/// most once per frame and only when something needs it.
+#[derive(Debug, Clone, Default)]
+pub struct TubeBvh {
+    pub bvh: ChainBvh,
+    fresh: bool,
+}
+
+impl TubeBvh {
+    /// Marks the boxes stale for a new frame.
+    pub fn begin(&mut self) {
+        self.fresh = false;
+    }
+
+    /// Refits if stale.
+    pub fn ensure(&mut self, t: &TubeView, cache: &mut TubeCache) -> &ChainBvh {
+        if !self.fresh {
+            self.bvh.build(t.segments(), |i| conservative_leaf(t, cache, i));
+            self.fresh = true;
+        }
+        &self.bvh
+    }
+}
+
+/// A box holding segment `i`'s whole wall: the Minkowski sum of the midline's Bezier hull and
+/// the box of both rings' radial vectors.
+pub fn conservative_leaf(t: &TubeView, cache: &mut TubeCache, i: usize) -> Aabb {
+    let mut spokes = Aabb::EMPTY;
+    for r in [i, i + 1] {
+        for k in 0..t.spokes {
+            spokes.add(t.spoke(r, k));
+        }
+    }
+    cache.cubic(t, i).bounds().minkowski(&spokes)
+}
+
+/// Squared distance from `p` to the chord of segment `i`.
+fn chord_distance2(t: &TubeView, i: usize, p: &V3) -> (f32, f32) {
+    let (a, b) = (t.point(i), t.point(i + 1));
+    let ab = b - a;
+    let len2 = ab.norm_squared();
+    let u = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    ((a + ab * u - p).norm_squared(), u)
+}
+
+/// Locates `p` without history: the most-inside segment whose box holds it, else the nearest
+/// midline chord. Returns the axial position (`BeforeStart` / `AfterEnd` beyond the ends).
+pub fn reacquire(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3, refine: u32, counters: &mut Counters) -> Axial {
+    counters.reacquired += 1;
+    let tree = bvh.ensure(t, cache);
+    let mut best: Option<(f32, usize, f32)> = None;
+    let q = Aabb { min: *p, max: *p };
+    let mut hits = [0usize; 16];
+    let mut nh = 0;
+    tree.query(&q, |i| {
+        if nh < hits.len() {
+            hits[nh] = i;
+            nh += 1;
+        }
+    });
+    counters.candidates += nh as u32;
+    for &i in &hits[..nh] {
+        if let Axial::In { seg, u } = cache.axial(t, p, i, 0) {
+            let g = cache.gap(t, p, seg, u, None, refine);
+            if best.is_none_or(|(sd, _, _)| g.sd < sd) {
+                best = Some((g.sd, seg, u));
+            }
+        }
+    }
+    if let Some((_, seg, u)) = best {
+        return Axial::In { seg, u };
+    }
+    let tree = bvh.ensure(t, cache);
+    let Some((i, _)) = tree.nearest(*p, |i| chord_distance2(t, i, p).0) else { return Axial::Lost };
+    match cache.axial(t, p, i, WINDOW) {
+        Axial::Lost => {
+            // Planes fold here (a kink sharper than the tube is wide): use the chord's foot.
+            let (_, u) = chord_distance2(t, i, p);
+            Axial::In { seg: i, u }
+        }
+        a => a,
+    }
+}
+
+/// Tunables of the signed narrow phase.
+#[derive(Debug, Clone, Copy)]
+pub struct SignedParams {
+    pub refine: u32,
+}
+
+/// Interior contacts of one rod inside one tube.
+#[allow(clippy::too_many_arguments)]
+pub fn interior(
+    t: &TubeView,
+    cache: &mut TubeCache,
+    bvh: &mut TubeBvh,
+    rod: &RodSamples,
+    tracks: &mut [Track],
+    params: SignedParams,
+    emit: &Emit,
+    out: &mut Vec<Contact>,
+    counters: &mut Counters,
+) {
+    let mut neighbour: Option<usize> = None;
+    for s in 0..rod.len() {
+        let p = rod.pos[s];
+        let tr = tracks[s];
+        let guess = if tr.valid { Some(tr.seg as usize) } else { neighbour };
+        let mut axial = match guess {
+            Some(g) => cache.axial(t, &p, g, WINDOW),
+            None => Axial::Lost,
+        };
+        let mut k_guess = tr.valid.then_some(tr.sector as usize);
+        if let Axial::In { seg, u } = axial {
+            // A walk that lands far from the midline has followed folded planes: re-acquire.
+            let scale = cache.scale(t, seg);
+            if (cache.cubic(t, seg).at(u) - p).norm() > 8.0 * scale + 2.0 * rod.radius[s] {
+                axial = Axial::Lost;
+            }
+        }
+        if axial == Axial::Lost {
+            axial = reacquire(t, cache, bvh, &p, params.refine, counters);
+            k_guess = None;
+        } else {
+            counters.walked += 1;
+        }
+        let (seg, u) = match axial {
+            Axial::In { seg, u } => (seg, u),
+            Axial::BeforeStart => {
+                tracks[s] = Track { seg: 0, sector: 0, valid: true };
+                neighbour = Some(0);
+                continue;
+            }
+            Axial::AfterEnd => {
+                let last = t.segments() - 1;
+                tracks[s] = Track { seg: last as u32, sector: 0, valid: true };
+                neighbour = Some(last);
+                continue;
+            }
+            Axial::Lost => {
+                tracks[s] = Track::default();
+                continue;
+            }
+        };
+        let g = cache.gap(t, &p, seg, u, k_guess, params.refine);
+        tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
+        neighbour = Some(g.seg);
+        let r = rod.radius[s];
+        let depth = g.sd + r;
+        if depth > -emit.margin {
+            out.push(tube_contact(rod, s, &g, r, depth, g.normal, emit, t.spokes));
+        }
+    }
+}
+
+/// Builds a contact against a tube wall; `normal` points from the rod towards the wall.
+fn tube_contact(rod: &RodSamples, s: usize, g: &Gap, r: f32, depth: f32, normal: V3, emit: &Emit, spokes: usize) -> Contact {
+    let (ja, ua) = rod.segment_of(s);
+    let p = rod.pos[s];
+    let mut c = emit.contact(s, ja, ua, p + normal * r, g.wall, normal, depth);
+    c.index_b = g.seg as u32;
+    c.spoke_b = g.k as u32;
+    c.param_b = g.u;
+    c.weights_b = g.weights();
+    debug_assert!(g.k < spokes);
+    c.flags = if g.not_star { FLAG_NOT_STAR } else { 0 } | if g.sd > 0.0 && emit.kind == 0 { FLAG_OUTSIDE } else { 0 };
+    c
+}
+
+/// Contacts of a rod against the outside of a tube (the tube as a solid). Candidates come from
+/// the dual traversal of both BVHs; per sample the deepest candidate wins.
+#[allow(clippy::too_many_arguments)]
+pub fn exterior(
+    t: &TubeView,
+    cache: &mut TubeCache,
+    bvh: &mut TubeBvh,
+    rod: &RodSamples,
+    rod_bvh: &ChainBvh,
+    best: &mut Vec<(f32, Gap)>,
+    params: SignedParams,
+    emit: &Emit,
+    out: &mut Vec<Contact>,
+    counters: &mut Counters,
+) {
+    best.clear();
+    best.resize(rod.len(), (f32::NEG_INFINITY, Gap::default()));
+    let tree = bvh.ensure(t, cache);
+    rod_bvh.pairs(tree, |j, i| {
+        counters.candidates += 1;
+        for s in rod.of_segment(j) {
+            let p = rod.pos[s];
+            let d0 = (p - t.point(i)).dot(&cache.ring(t, i).n);
+            let d1 = (p - t.point(i + 1)).dot(&cache.ring(t, i + 1).n);
+            if d0 < 0.0 || d1 > 0.0 {
+                continue;
+            }
+            let u = if d0 - d1 > 0.0 { d0 / (d0 - d1) } else { 0.0 };
+            let g = cache.gap(t, &p, i, u, None, params.refine);
+            let depth = rod.radius[s] - g.sd;
+            if depth > best[s].0 {
+                best[s] = (depth, g);
+            }
+        }
+    });
+    for (s, (depth, g)) in best.iter().enumerate() {
+        if *depth > -emit.margin {
+            out.push(tube_contact(rod, s, g, rod.radius[s], *depth, -g.normal, emit, t.spokes));
+        }
+    }
+}

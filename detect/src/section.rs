@@ -1,0 +1,309 @@
+//! Tube coordinates and the signed gap: where a point is along a tube, which sector of the
+//! cross-section holds it, and how far it is from the wall, with sign.
+//!
+//! The tube's surface is the continuous one the method defines:
+//!
+//! ```text
+//! S(i, u, k, l) = C_i(u) + (1 - l) V_k(u) + l V_{k+1}(u),   V_k(u) = (1 - u) V_{i,k} + u V_{i+1,k}
+//! ```
+//!
+//! with `C_i` the Catmull-Rom segment between rings `i` and `i + 1`, `u, l` in [0, 1], and `k`
+//! running around the ring (mod `B`).
+//!
+//! **Axial coordinate.** Each ring has a plane through its control point with normal `n_i` (the
+//! ring's own plane, from its spokes, so tilted rings slice correctly; the midline tangent when
+//! the ring is collapsed). A point `P` lies in segment `i` when `d_i = (P - P_i) . n_i >= 0 >=
+//! d_{i+1}`, and then `u = d_i / (d_i - d_{i+1})`. Consecutive segments share a plane, so a walk
+//! from a guess never oscillates.
+//!
+//! **Sector.** In the section at `u` (centre `C = C_i(u)`, normal `n(u)`), the in-plane offset
+//! `q = P - C` lies between spokes `a = V_k(u)` and `b = V_{k+1}(u)` when `s1 = o (a x q).n >= 0`
+//! and `s2 = o (q x b).n >= 0` (`o` = +1 for spokes counter-clockwise about `n`, -1 clockwise).
+//! The ray from `C` through `P` meets the wall edge at `l = s1 / (s1 + s2)`.
+//!
+//! **Signed distance.** With `W = S(i, u, k, l)` and `N` the outward unit normal of `S` at `W`
+//! (`o (dS/dl x dS/du)`), `sd = (P - W) . N`: the distance to the wall's tangent plane, negative
+//! inside. One refinement re-projects the foot `P - sd N` radially, which makes it exact to
+//! second order. The normal is the wall's, never "sample to wall", so it does not flip when
+//! the sample crosses the wall.
+
+use crate::spline::Cubic;
+use crate::view::TubeView;
+use crate::V3;
+
+/// Per-ring data derived lazily each frame.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Ring {
+    /// Unit normal of the ring plane, oriented along the midline.
+    pub n: V3,
+    /// +1 if spokes run counter-clockwise about `n`, -1 if clockwise.
+    pub o: f32,
+    /// Largest of four sampled spoke lengths: a size scale for tolerances.
+    pub size: f32,
+}
+
+/// Lazily computed, frame-stamped cubics and rings of one tube: only what the rod's samples
+/// touch is computed, so a frame costs what the rod needs, not what the tube holds.
+#[derive(Debug, Clone, Default)]
+pub struct TubeCache {
+    stamp: u32,
+    seg_stamp: Vec<u32>,
+    cubic: Vec<Cubic>,
+    ring_stamp: Vec<u32>,
+    ring: Vec<Ring>,
+    pub alpha: f32,
+}
+
+/// Where a point is along the tube.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Axial {
+    /// Between rings `seg` and `seg + 1`, at `u`.
+    In { seg: usize, u: f32 },
+    /// Before the first ring's plane.
+    BeforeStart,
+    /// Past the last ring's plane.
+    AfterEnd,
+    /// No bracketing planes within the search window.
+    Lost,
+}
+
+/// The signed gap of a point to the wall, with everything a contact needs.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Gap {
+    /// Signed distance from the point to the wall: negative inside the tube.
+    pub sd: f32,
+    /// Outward unit normal of the wall at `wall`.
+    pub normal: V3,
+    /// Wall point (local coordinates).
+    pub wall: V3,
+    pub seg: usize,
+    pub u: f32,
+    /// First spoke of the sector.
+    pub k: usize,
+    /// Position between spokes `k` and `k + 1`.
+    pub l: f32,
+    /// The sector walk found the section not star-shaped.
+    pub not_star: bool,
+}
+
+impl Gap {
+    /// Weights of tips (seg, k), (seg, k+1), (seg+1, k), (seg+1, k+1).
+    pub fn weights(&self) -> [f32; 4] {
+        let (u, l) = (self.u, self.l);
+        [(1.0 - u) * (1.0 - l), (1.0 - u) * l, u * (1.0 - l), u * l]
+    }
+}
+
+/// A unit vector perpendicular to unit `n`.
+#[inline]
+pub fn any_perpendicular(n: V3) -> V3 {
+    let a = if n.x.abs() < 0.577 { V3::x() } else if n.y.abs() < 0.577 { V3::y() } else { V3::z() };
+    n.cross(&a).normalize()
+}
+
+impl TubeCache {
+    /// Starts a new frame for a tube of `rings` rings: every cached value becomes stale.
+    pub fn begin(&mut self, rings: usize, alpha: f32) {
+        if self.ring.len() != rings || self.alpha != alpha {
+            self.seg_stamp.clear();
+            self.seg_stamp.resize(rings.saturating_sub(1), 0);
+            self.cubic.resize(rings.saturating_sub(1), Cubic::default());
+            self.ring_stamp.clear();
+            self.ring_stamp.resize(rings, 0);
+            self.ring.resize(rings, Ring::default());
+            self.alpha = alpha;
+            self.stamp = 0;
+        }
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            // Wrapped: clear so no stale entry can match.
+            self.seg_stamp.iter_mut().for_each(|s| *s = 0);
+            self.ring_stamp.iter_mut().for_each(|s| *s = 0);
+            self.stamp = 1;
+        }
+    }
+
+    /// The midline cubic of segment `i`.
+    #[inline]
+    pub fn cubic(&mut self, t: &TubeView, i: usize) -> Cubic {
+        if self.seg_stamp[i] != self.stamp {
+            self.cubic[i] = Cubic::of_chain(|j| t.point(j), t.rings, i, self.alpha);
+            self.seg_stamp[i] = self.stamp;
+        }
+        self.cubic[i]
+    }
+
+    /// Ring `i`'s plane.
+    #[inline]
+    pub fn ring(&mut self, t: &TubeView, i: usize) -> Ring {
+        if self.ring_stamp[i] != self.stamp {
+            self.ring[i] = self.compute_ring(t, i);
+            self.ring_stamp[i] = self.stamp;
+        }
+        self.ring[i]
+    }
+
+    fn compute_ring(&mut self, t: &TubeView, i: usize) -> Ring {
+        let tangent = if i + 1 < t.rings { self.cubic(t, i).tangent(0.0) } else { self.cubic(t, i - 1).tangent(1.0) };
+        // Two "diagonals" of the ring: their cross product is the ring's area normal for any
+        // planar section, at O(1) cost instead of O(B).
+        let b = t.spokes;
+        let s = [t.spoke(i, 0), t.spoke(i, b / 4), t.spoke(i, b / 2), t.spoke(i, 3 * b / 4)];
+        let size = s.iter().map(|v| v.norm()).fold(0.0f32, f32::max);
+        let area = (s[2] - s[0]).cross(&(s[3] - s[1]));
+        let tn = tangent.norm();
+        let an = area.norm();
+        let t_hat = if tn > 0.0 { tangent / tn } else { V3::zeros() };
+        let mut o = 1.0;
+        let n = if an > 1e-6 * size * size && an > 0.0 {
+            let a_hat = area / an;
+            let c = a_hat.dot(&t_hat);
+            o = if c < 0.0 { -1.0 } else { 1.0 };
+            // A ring nearly parallel to the midline cannot slice it: fall back to the tangent.
+            if tn == 0.0 || c.abs() > 0.1 { a_hat * o } else { t_hat }
+        } else if tn > 0.0 {
+            t_hat
+        } else {
+            V3::x()
+        };
+        Ring { n, o, size }
+    }
+
+    /// Signed distance of `p` to ring `i`'s plane.
+    #[inline]
+    fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
+        let r = self.ring(t, i);
+        (p - t.point(i)).dot(&r.n)
+    }
+
+    /// Finds the segment holding `p`, walking at most `window` segments from `guess`.
+    pub fn axial(&mut self, t: &TubeView, p: &V3, guess: usize, window: usize) -> Axial {
+        let last = t.segments() - 1;
+        let mut i = guess.min(last);
+        let mut d0 = self.plane(t, i, p);
+        let mut d1 = self.plane(t, i + 1, p);
+        for _ in 0..=window {
+            if d0 < 0.0 {
+                if i == 0 {
+                    return Axial::BeforeStart;
+                }
+                i -= 1;
+                d1 = d0;
+                d0 = self.plane(t, i, p);
+            } else if d1 > 0.0 {
+                if i == last {
+                    return Axial::AfterEnd;
+                }
+                i += 1;
+                d0 = d1;
+                d1 = self.plane(t, i + 1, p);
+            } else {
+                let den = d0 - d1;
+                let u = if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 };
+                return Axial::In { seg: i, u };
+            }
+        }
+        Axial::Lost
+    }
+
+    /// Size scale of segment `i` (largest sampled spoke of its rings, or its chord).
+    pub fn scale(&mut self, t: &TubeView, i: usize) -> f32 {
+        let a = self.ring(t, i).size.max(self.ring(t, i + 1).size);
+        a.max((t.point(i + 1) - t.point(i)).norm())
+    }
+
+    /// The signed gap of `p` in segment `seg` at `u`, starting the sector walk at `k_guess`
+    /// (`None`: estimate from the angle), with `refine` re-projections.
+    pub fn gap(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>, refine: u32) -> Gap {
+        let mut g = self.gap_once(t, p, seg, u, k_guess);
+        for _ in 0..refine {
+            let foot = p - g.normal * g.sd;
+            let (s, uu) = match self.axial(t, &foot, g.seg, 2) {
+                Axial::In { seg, u } => (seg, u),
+                _ => break,
+            };
+            let mut h = self.gap_once(t, &foot, s, uu, Some(g.k));
+            h.sd = (p - h.wall).dot(&h.normal);
+            h.not_star |= g.not_star;
+            g = h;
+        }
+        g
+    }
+
+    fn gap_once(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>) -> Gap {
+        let b = t.spokes;
+        let cubic = self.cubic(t, seg);
+        let (r0, r1) = (self.ring(t, seg), self.ring(t, seg + 1));
+        let o = if r0.size > 0.0 { r0.o } else { r1.o };
+        let c = cubic.at(u);
+        let mut n = r0.n * (1.0 - u) + r1.n * u;
+        let nn = n.norm();
+        n = if nn > 1e-6 { n / nn } else { r0.n };
+        let spoke = |k: usize| t.spoke(seg, k) * (1.0 - u) + t.spoke(seg + 1, k) * u;
+        let d = p - c;
+        let mut q = d - n * d.dot(&n);
+        let scale = r0.size.max(r1.size);
+        if q.norm_squared() <= (1e-6 * scale) * (1e-6 * scale) {
+            // On the midline: every direction is as near; take the first spoke's, deterministically.
+            q = spoke(0);
+            if q.norm_squared() == 0.0 {
+                q = any_perpendicular(n);
+            }
+        }
+        let mut k = match k_guess {
+            Some(k) if k < b => k,
+            _ => {
+                let a0 = spoke(0);
+                let ang = (o * a0.cross(&q).dot(&n)).atan2(a0.dot(&q));
+                let f = ang.rem_euclid(std::f32::consts::TAU) / std::f32::consts::TAU;
+                ((f * b as f32) as usize).min(b - 1)
+            }
+        };
+        // Sector walk; a reversal of direction means the section is not star-shaped here.
+        let (mut a, mut bb) = (spoke(k), spoke((k + 1) % b));
+        let mut last_step = 0i32;
+        let mut not_star = false;
+        let (mut s1, mut s2);
+        let mut steps = 0;
+        loop {
+            s1 = o * a.cross(&q).dot(&n);
+            s2 = o * q.cross(&bb).dot(&n);
+            let step = if s1 < 0.0 { -1 } else if s2 < 0.0 { 1 } else { 0 };
+            if step == 0 {
+                break;
+            }
+            if step == -last_step || steps >= b {
+                not_star = true;
+                break;
+            }
+            last_step = step;
+            steps += 1;
+            k = if step < 0 { (k + b - 1) % b } else { (k + 1) % b };
+            if step < 0 {
+                bb = a;
+                a = spoke(k);
+            } else {
+                a = bb;
+                bb = spoke((k + 1) % b);
+            }
+        }
+        let den = s1 + s2;
+        let l = if den > 0.0 && s1 >= 0.0 && s2 >= 0.0 { (s1 / den).clamp(0.0, 1.0) } else { 0.5 };
+        let w = bb - a;
+        let wall = c + a + w * l;
+        let k1 = (k + 1) % b;
+        let su = cubic.tangent(u)
+            + (t.spoke(seg + 1, k) - t.spoke(seg, k)) * (1.0 - l)
+            + (t.spoke(seg + 1, k1) - t.spoke(seg, k1)) * l;
+        let mut normal = w.cross(&su) * o;
+        let len = normal.norm();
+        if len > 1e-12 * scale * scale && len > 0.0 {
+            normal /= len;
+        } else {
+            // Collapsed wall patch: the radial direction is the only sensible outward.
+            let qn = q.norm();
+            normal = if qn > 0.0 { q / qn } else { any_perpendicular(n) };
+        }
+        Gap { sd: (p - wall).dot(&normal), normal, wall, seg, u, k, l, not_star }
+    }
+}

@@ -1,0 +1,67 @@
+//! Read-only views of one body inside the flat frame state, in local coordinates.
+//!
+//! Every position is read relative to a per-frame origin (a control point of the scene), so a
+//! scene far from the world origin loses no precision inside the pipeline: subtracting two
+//! nearby `f32` values is exact, and all further arithmetic is on small numbers.
+
+use crate::V3;
+
+/// A tube: `rings` control points, each followed by `spokes` radial vectors.
+#[derive(Debug, Clone, Copy)]
+pub struct TubeView<'a> {
+    data: &'a [f32],
+    pub rings: usize,
+    pub spokes: usize,
+    origin: V3,
+}
+
+impl<'a> TubeView<'a> {
+    /// `data` must hold `rings * (spokes + 1) * 3` floats.
+    pub fn new(data: &'a [f32], rings: usize, spokes: usize, origin: V3) -> Self {
+        debug_assert_eq!(data.len(), rings * (spokes + 1) * 3);
+        Self { data, rings, spokes, origin }
+    }
+
+    /// Control point `i`, local.
+    #[inline]
+    pub fn point(&self, i: usize) -> V3 {
+        let o = i * (self.spokes + 1) * 3;
+        let d = &self.data[o..o + 3];
+        V3::new(d[0] - self.origin.x, d[1] - self.origin.y, d[2] - self.origin.z)
+    }
+
+    /// Radial vector `k` of ring `i` (relative to its control point).
+    #[inline]
+    pub fn spoke(&self, i: usize, k: usize) -> V3 {
+        let o = (i * (self.spokes + 1) + 1 + k) * 3;
+        let d = &self.data[o..o + 3];
+        V3::new(d[0], d[1], d[2])
+    }
+
+    /// Segments (ring pairs).
+    pub fn segments(&self) -> usize {
+        self.rings - 1
+    }
+}
+
+/// A rod: control points only (radii live in the scene spec).
+#[derive(Debug, Clone, Copy)]
+pub struct RodView<'a> {
+    data: &'a [f32],
+    pub points: usize,
+    origin: V3,
+}
+
+impl<'a> RodView<'a> {
+    pub fn new(data: &'a [f32], points: usize, origin: V3) -> Self {
+        debug_assert_eq!(data.len(), points * 3);
+        Self { data, points, origin }
+    }
+
+    /// Control point `i`, local.
+    #[inline]
+    pub fn point(&self, i: usize) -> V3 {
+        let d = &self.data[i * 3..i * 3 + 3];
+        V3::new(d[0] - self.origin.x, d[1] - self.origin.y, d[2] - self.origin.z)
+    }
+}

@@ -1,0 +1,20 @@
+//! Lumen's wire types, shared by the pipeline, the daemon and every client.
+//!
+//! - [`scene`]: what a client declares once: bodies, which pairs and contact kinds to compute,
+//!   precision and method (serde, JSON-friendly).
+//! - [`state`]: where each body's floats live in the flat per-frame `f32` slice.
+//! - [`contact`]: the `#[repr(C)]` contact record the pipeline emits.
+//! - [`limits`] and [`error`]: bounds on every count and the errors that name what was wrong.
+//!
+//! No I/O happens here.
+
+pub mod contact;
+pub mod error;
+pub mod limits;
+pub mod scene;
+pub mod state;
+
+pub use contact::{Contact, ContactKind};
+pub use error::{InputError, SpecError};
+pub use scene::{BodySpec, Method, PairSpec, SceneSpec, Shape};
+pub use state::{BodyLayout, StateLayout};

@@ -1,0 +1,19 @@
+//! Bounds on every count a client can send. The daemon sizes shared memory from them, so a
+//! client can never make it allocate without bound.
+
+/// Fewest control points of a body: two make one straight segment.
+pub const MIN_POINTS: usize = 2;
+/// Most control points (rings) of one body.
+pub const MAX_POINTS: usize = 65_536;
+/// Fewest radial vectors per ring of a tube: a triangle is the smallest section.
+pub const MIN_SPOKES: usize = 3;
+/// Most radial vectors per ring of a tube.
+pub const MAX_SPOKES: usize = 256;
+/// Most bodies in one scene.
+pub const MAX_BODIES: usize = 64;
+/// Most declared pairs in one scene.
+pub const MAX_PAIRS: usize = 256;
+/// Highest precision `x` (samples per segment).
+pub const MAX_PRECISION: u32 = 64;
+/// Most `f32` values in one frame's state (64 MiB of floats).
+pub const MAX_STATE_FLOATS: usize = 16 * 1024 * 1024;

@@ -1,0 +1,112 @@
+//! Where each body's floats live in the flat per-frame state.
+//!
+//! Bodies follow one another in the order the spec declares them, with no padding:
+//! - a tube of `A` rings and `B` spokes: for each ring, its control point `x y z` then its `B`
+//!   radial vectors `x y z` (relative to the control point): `A * (B + 1) * 3` floats, so one
+//!   ring's data is contiguous;
+//! - a rod of `A` points: `A * 3` floats.
+
+use crate::error::InputError;
+use crate::scene::{SceneSpec, Shape};
+
+/// Offsets of one body in the state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BodyLayout {
+    /// First float of the body.
+    pub offset: usize,
+    /// Control points (rings).
+    pub points: usize,
+    /// Spokes per ring; 0 for a rod.
+    pub spokes: usize,
+}
+
+impl BodyLayout {
+    /// Floats between consecutive control points.
+    pub fn stride(&self) -> usize {
+        (self.spokes + 1) * 3
+    }
+    /// Total floats of the body.
+    pub fn floats(&self) -> usize {
+        self.points * self.stride()
+    }
+}
+
+/// The layout of a whole scene's state.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StateLayout {
+    pub bodies: Vec<BodyLayout>,
+    /// Total floats per frame.
+    pub floats: usize,
+}
+
+impl StateLayout {
+    /// Layout of `spec` (assumed validated).
+    pub fn of(spec: &SceneSpec) -> Self {
+        let mut offset = 0;
+        let bodies = spec
+            .bodies
+            .iter()
+            .map(|b| {
+                let spokes = match b.shape {
+                    Shape::Tube { spokes, .. } => spokes,
+                    Shape::Rod { .. } => 0,
+                };
+                let l = BodyLayout { offset, points: b.points(), spokes };
+                offset += l.floats();
+                l
+            })
+            .collect();
+        Self { bodies, floats: offset }
+    }
+
+    /// Checks the length and that every value is finite; the error names body, ring and spoke.
+    pub fn check(&self, spec: &SceneSpec, state: &[f32]) -> Result<(), InputError> {
+        if state.len() != self.floats {
+            return Err(InputError::StateLength { expected: self.floats, got: state.len() });
+        }
+        // Fast path: one branch-free pass; the slow path below only runs to name the culprit.
+        if state.iter().all(|v| v.is_finite()) {
+            return Ok(());
+        }
+        for (b, l) in self.bodies.iter().enumerate() {
+            let data = &state[l.offset..l.offset + l.floats()];
+            if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+                let (point, within) = (i / l.stride(), i % l.stride() / 3);
+                let (body, value) = (spec.bodies[b].name.clone(), data[i]);
+                return Err(if within == 0 {
+                    InputError::NonFinitePoint { body, point, value }
+                } else {
+                    InputError::NonFiniteSpoke { body, ring: point, spoke: within - 1, value }
+                });
+            }
+        }
+        unreachable!("a non-finite value was seen in the state")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{BodySpec, SceneSpec};
+
+    #[test]
+    fn offsets_and_nan_location() {
+        let spec = SceneSpec::new(
+            vec![
+                BodySpec { name: "t".into(), shape: Shape::Tube { rings: 3, spokes: 4 } },
+                BodySpec { name: "r".into(), shape: Shape::Rod { points: 2, radius: vec![1.0] } },
+            ],
+            vec![],
+        );
+        let l = StateLayout::of(&spec);
+        assert_eq!(l.bodies[1].offset, 3 * 5 * 3);
+        assert_eq!(l.floats, 45 + 6);
+        let mut s = vec![0.0; l.floats];
+        assert_eq!(l.check(&spec, &s[1..]), Err(InputError::StateLength { expected: 51, got: 50 }));
+        s[15 + 3 * 3 + 1] = f32::NAN; // ring 1, spoke 2, y
+        assert!(matches!(l.check(&spec, &s), Err(InputError::NonFiniteSpoke { ring: 1, spoke: 2, .. })));
+        s[15 + 10] = 0.0;
+        s[45 + 4] = f32::INFINITY; // rod point 1
+        assert!(matches!(l.check(&spec, &s), Err(InputError::NonFinitePoint { point: 1, .. })));
+    }
+}
