@@ -23,8 +23,10 @@
 //!
 //! **Signed distance.** With `W = S(i, u, k, l)` and `N` the outward unit normal of `S` at `W`
 //! (`o (dS/dl x dS/du)`), `sd = (P - W) . N`: the distance to the wall's tangent plane, negative
-//! inside. One refinement re-projects the foot `P - sd N` radially, which makes it exact to
-//! second order. The normal is the wall's, never "sample to wall", so it does not flip when
+//! inside; near a spoke (a corner of the polygonal section) the nearest of the three local
+//! wall strips or the tip line between them, so corners are exact too. A refinement moves the
+//! section to the axial position of the foot `P - sd N` and evaluates again, which removes the
+//! error of a wall sloped along the tube to second order. The normal is the wall's, never "sample to wall", so it does not flip when
 //! the sample crosses the wall.
 
 use crate::spline::Cubic;
@@ -217,15 +219,12 @@ impl TubeCache {
     pub fn gap(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>, refine: u32) -> Gap {
         let mut g = self.gap_once(t, p, seg, u, k_guess);
         for _ in 0..refine {
+            // The foot on the wall tells where along the tube the nearest point really is;
+            // evaluate the point itself again in that section.
             let foot = p - g.normal * g.sd;
-            let (s, uu) = match self.axial(t, &foot, g.seg, 2) {
-                Axial::In { seg, u } => (seg, u),
-                _ => break,
-            };
-            let mut h = self.gap_once(t, &foot, s, uu, Some(g.k));
-            h.sd = (p - h.wall).dot(&h.normal);
-            h.not_star |= g.not_star;
-            g = h;
+            let Axial::In { seg, u } = self.axial(t, &foot, g.seg, 2) else { break };
+            let h = self.gap_once(t, p, seg, u, Some(g.k));
+            g = Gap { not_star: g.not_star | h.not_star, ..h };
         }
         g
     }
@@ -289,21 +288,54 @@ impl TubeCache {
         }
         let den = s1 + s2;
         let l = if den > 0.0 && s1 >= 0.0 && s2 >= 0.0 { (s1 / den).clamp(0.0, 1.0) } else { 0.5 };
-        let w = bb - a;
-        let wall = c + a + w * l;
-        let k1 = (k + 1) % b;
-        let su = cubic.tangent(u)
-            + (t.spoke(seg + 1, k) - t.spoke(seg, k)) * (1.0 - l)
-            + (t.spoke(seg + 1, k1) - t.spoke(seg, k1)) * l;
-        let mut normal = w.cross(&su) * o;
-        let len = normal.norm();
-        if len > 1e-12 * scale * scale && len > 0.0 {
-            normal /= len;
-        } else {
-            // Collapsed wall patch: the radial direction is the only sensible outward.
+        let cprime = cubic.tangent(u);
+        let delta = |k: usize| t.spoke(seg + 1, k) - t.spoke(seg, k);
+        // Outward unit normal of wall strip `e` at position `l` along it.
+        let face_normal = |ta: V3, tb: V3, e: usize, l: f32| -> Option<V3> {
+            let su = cprime + delta(e) * (1.0 - l) + delta((e + 1) % b) * l;
+            let nrm = (tb - ta).cross(&su) * o;
+            let len = nrm.norm();
+            (len > 1e-12 * scale * scale && len > 0.0).then(|| nrm / len)
+        };
+        // Inside or outside: the side of the strip the radial ray from the midline meets.
+        let radial_wall = c + a + (bb - a) * l;
+        let radial_n = face_normal(c + a, c + bb, k, l).unwrap_or_else(|| {
             let qn = q.norm();
-            normal = if qn > 0.0 { q / qn } else { any_perpendicular(n) };
+            if qn > 0.0 { q / qn } else { any_perpendicular(n) }
+        });
+        let sign = if (p - radial_wall).dot(&radial_n) > 0.0 { 1.0 } else { -1.0 };
+        // Distance: the nearest of the three local strips (face region) or the tip lines
+        // between them (vertex region), so convex and concave corners of the polygonal section
+        // are exact, not only its flat parts.
+        let mut best = (f32::INFINITY, k, l, radial_n, radial_wall);
+        for e in [(k + b - 1) % b, k, (k + 1) % b] {
+            let e1 = (e + 1) % b;
+            let (ta, tb) = (c + spoke(e), c + spoke(e1));
+            let w = tb - ta;
+            let ww = w.norm_squared();
+            let lam = if ww > 0.0 { (p - ta).dot(&w) / ww } else { 0.0 };
+            if ww > 0.0 && (0.0..=1.0).contains(&lam) {
+                if let Some(nf) = face_normal(ta, tb, e, lam) {
+                    let h = (p - ta - w * lam).dot(&nf);
+                    if h.abs() < best.0 {
+                        best = (h.abs(), e, lam, nf, p - nf * h);
+                    }
+                    continue;
+                }
+            }
+            // Vertex region: distance to the tip's line along the tube at the clamped end.
+            let (lc, tip, kt) = if lam < 0.5 { (0.0, ta, e) } else { (1.0, tb, e1) };
+            let tt = cprime + delta(kt);
+            let r = p - tip;
+            let along = tt.try_normalize(0.0).map_or(V3::zeros(), |d| d * r.dot(&d));
+            let perp = r - along;
+            let d = perp.norm();
+            if d < best.0 {
+                let nv = if d > 1e-6 * scale { perp / d * sign } else { radial_n };
+                best = (d, e, lc, nv, tip + along);
+            }
         }
-        Gap { sd: (p - wall).dot(&normal), normal, wall, seg, u, k, l, not_star }
+        let (d, k, l, normal, wall) = best;
+        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star }
     }
 }
