@@ -310,7 +310,10 @@ impl TubeCache {
         let mut best = (f32::INFINITY, k, l, radial_n, radial_wall);
         for e in [(k + b - 1) % b, k, (k + 1) % b] {
             let e1 = (e + 1) % b;
-            let (ta, tb) = (c + spoke(e), c + spoke(e1));
+            let (va, vb) = (spoke(e), spoke(e1));
+            // A wedge turning backwards is a fold: the section is not star-shaped here.
+            not_star |= o * va.cross(&vb).dot(&n) < 0.0;
+            let (ta, tb) = (c + va, c + vb);
             let w = tb - ta;
             let ww = w.norm_squared();
             let lam = if ww > 0.0 { (p - ta).dot(&w) / ww } else { 0.0 };

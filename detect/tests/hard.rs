@@ -1,0 +1,520 @@
+//! Hard cases, one test each, asserting numbers against exact answers (straight tubes, where
+//! the wall is a prism over a polygon and distances are 2D) or the dense reference (curved ones,
+//! in `hard_reference.rs`).
+
+mod common;
+use common::*;
+use lumen_detect::proto::contact::{FLAG_NOT_STAR, FLAG_OUTSIDE};
+use lumen_detect::proto::{BodySpec, PairSpec, Shape};
+use lumen_detect::{ContactKind, Detector, InputError, Method, Scene, SceneSpec, SpecError, Tube};
+use std::f32::consts::{PI, TAU};
+
+/// Signed distance from 2D point `p` to the polygon `poly` (negative inside), brute force.
+fn polygon_sd(poly: &[[f32; 2]], p: [f32; 2]) -> f32 {
+    let mut best = f32::INFINITY;
+    let mut inside = false;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        let w = [b[0] - a[0], b[1] - a[1]];
+        let ww = w[0] * w[0] + w[1] * w[1];
+        let l = (((p[0] - a[0]) * w[0] + (p[1] - a[1]) * w[1]) / ww).clamp(0.0, 1.0);
+        let d = ((a[0] + w[0] * l - p[0]).powi(2) + (a[1] + w[1] * l - p[1]).powi(2)).sqrt();
+        best = best.min(d);
+        if (a[1] > p[1]) != (b[1] > p[1]) && p[0] < a[0] + (p[1] - a[1]) / (b[1] - a[1]) * w[0] {
+            inside = !inside;
+        }
+    }
+    if inside { -best } else { best }
+}
+
+/// Spokes of a straight tube along +x as (y, z) polygon.
+fn section(t: &Tube, ring: usize) -> Vec<[f32; 2]> {
+    (0..t.spokes).map(|k| [t.spoke(ring, k)[1], t.spoke(ring, k)[2]]).collect()
+}
+
+fn assert_finite(cs: &[lumen_detect::Contact]) {
+    for c in cs {
+        let all = c.point_a.iter().chain(&c.point_b).chain(&c.normal).chain(&c.weights_b).chain([&c.depth, &c.param_a, &c.param_b]);
+        assert!(all.clone().all(|v| v.is_finite()), "non-finite contact {c:?}");
+        assert!((norm(c.normal) - 1.0).abs() < 1e-4, "normal not unit: {c:?}");
+    }
+}
+
+#[test]
+fn hard_coincident_control_points() {
+    // Ring 3 duplicated (and ring 0 too): the same surface as without duplicates.
+    let base = straight(8, 5.0, 10.0, 16);
+    let dup = |t: &Tube| {
+        let mut idx: Vec<usize> = (0..t.rings()).collect();
+        idx.insert(3, 3);
+        idx.insert(0, 0);
+        let points = idx.iter().map(|&i| t.points[i]).collect();
+        let radial = idx.iter().flat_map(|&i| (0..t.spokes).map(move |k| (i, k))).map(|(i, k)| t.spoke(i, k)).collect();
+        Tube::new(points, radial, t.spokes).unwrap()
+    };
+    let scope = line([1.0, 6.0, 0.5], [34.0, 6.0, 0.5], 6, 5.0);
+    for m in [Method::Signed, Method::Thesis] {
+        let a = run(&interior(base.clone(), scope.clone(), 4, m));
+        let b = run(&interior(dup(&base), scope.clone(), 4, m));
+        assert_finite(&b);
+        assert_eq!(a.len(), b.len(), "{m:?}");
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x.depth - y.depth).abs() < 1e-4, "{m:?}: {} vs {}", x.depth, y.depth);
+        }
+    }
+}
+
+#[test]
+fn hard_only_two_control_points() {
+    // One straight segment: covered end to end (the original code had no leaf for it).
+    let colon = straight(2, 40.0, 10.0, 16);
+    let scope = line([0.0, 7.0, 0.0], [40.0, 7.0, 0.0], 2, 4.0);
+    for m in [Method::Signed, Method::Thesis] {
+        let cs = run(&interior(colon.clone(), scope.clone(), 8, m));
+        assert_eq!(cs.len(), 9, "{m:?}: every sample including both ends");
+        let want = 4.0 + polygon_sd(&section(&colon, 0), [7.0, 0.0]);
+        for c in &cs {
+            assert!((c.depth - want).abs() < 1e-4, "{m:?}: depth {} want {want}", c.depth);
+        }
+    }
+}
+
+#[test]
+fn hard_collapsed_section() {
+    // Ring 5 of 11 pinched to 1e-6 of the radius: a rod through it touches everywhere near it
+    // and nothing is NaN; right at the pinch the wall is at the midline, so depth = r + |offset|.
+    let colon = tube(11, 16, |i| [i as f32 * 5.0, 0.0, 0.0], |i, k| {
+        let r = if i == 5 { 1e-5 } else { 10.0 };
+        let a = k as f32 * TAU / 16.0;
+        [0.0, r * a.cos(), r * a.sin()]
+    });
+    let scope = line([2.0, 0.5, 0.0], [48.0, 0.5, 0.0], 24, 2.0);
+    let cs = run(&interior(colon, scope, 2, Method::Signed));
+    assert_finite(&cs);
+    // Around the pinch the wall is a cone: in the (x, rho) plane along spoke 0 it is the line
+    // from (20, 10) to (25, 0). The sample at x = 25 (index 23) is outside it, at distance
+    // 0.5 * 5 / sqrt(125) from that line.
+    let at_pinch = cs.iter().find(|c| c.sample == 23).expect("a contact at x = 25");
+    let want = 2.0 + 0.5 * 5.0 / 125f32.sqrt();
+    assert!((at_pinch.depth - want).abs() < 1e-3, "depth at the pinch {} want {want}", at_pinch.depth);
+    assert_ne!(at_pinch.flags & FLAG_OUTSIDE, 0);
+    // Where the wall is 10 away (x < 20 or x > 30, minus the cone) nothing touches.
+    assert!(cs.iter().all(|c| (17..=29).contains(&c.sample)), "{:?}", cs.iter().map(|c| c.sample).collect::<Vec<_>>());
+}
+
+#[test]
+fn hard_zero_length_spoke() {
+    // Spoke 0 (+y) has length 0 on every ring: the wall runs along the midline there, so a rod
+    // at (y, z) = (2, 0) is outside the lumen, 2 from that wall line... the section is a
+    // polygon through the origin; the 2D polygon distance is exact.
+    let colon = tube(6, 12, |i| [i as f32 * 5.0, 0.0, 0.0], |_, k| {
+        let r = if k == 0 { 0.0 } else { 10.0 };
+        let a = k as f32 * TAU / 12.0;
+        [0.0, r * a.cos(), r * a.sin()]
+    });
+    let poly = section(&colon, 0);
+    for (y, z) in [(2.0, 0.0), (1.0, 3.0), (-3.0, 0.5), (0.0, -4.0)] {
+        let scope = line([3.0, y, z], [22.0, y, z], 3, 1.5);
+        let cs = run(&interior(colon.clone(), scope, 1, Method::Signed));
+        assert_finite(&cs);
+        let want = 1.5 + polygon_sd(&poly, [y, z]);
+        if want > 0.0 {
+            assert_eq!(cs.len(), 3, "at ({y}, {z})");
+        }
+        for c in &cs {
+            assert!((c.depth - want).abs() < 1e-4, "at ({y}, {z}): depth {} want {want}", c.depth);
+        }
+    }
+}
+
+#[test]
+fn hard_rod_exactly_on_the_midline() {
+    // Thin rod on the axis: no contact. Every direction is equally near; nothing NaN.
+    let colon = straight(10, 5.0, 10.0, 24);
+    let cs = run(&interior(colon.clone(), line([0.0, 0.0, 0.0], [45.0, 0.0, 0.0], 10, 3.0), 4, Method::Signed));
+    assert!(cs.is_empty());
+    // Just thick enough to touch the nearest edges: depth r - R cos(pi/B).
+    let r = 10.0 * (PI / 24.0).cos() + 0.25;
+    let cs = run(&interior(colon, line([0.0, 0.0, 0.0], [45.0, 0.0, 0.0], 10, r), 4, Method::Signed));
+    assert_eq!(cs.len(), 9 * 4 + 1);
+    assert_finite(&cs);
+    for c in &cs {
+        assert!((c.depth - 0.25).abs() < 1e-4, "depth {}", c.depth);
+    }
+}
+
+#[test]
+fn hard_rod_exactly_on_a_spoke() {
+    // Along the direction of spoke 5 (a sector boundary): the same answer from both sides, the
+    // same sector every time.
+    let b = 20;
+    let colon = straight(10, 5.0, 10.0, b);
+    let a = 5.0 * TAU / b as f32;
+    let (y, z) = (7.0 * a.cos(), 7.0 * a.sin());
+    let scope = line([1.0, y, z], [44.0, y, z], 8, 4.0);
+    let first = run(&interior(colon.clone(), scope.clone(), 2, Method::Signed));
+    let want = 4.0 + polygon_sd(&section(&colon, 0), [y, z]);
+    assert_eq!(first.len(), 15);
+    for c in &first {
+        assert!((c.depth - want).abs() < 1e-4, "depth {} want {want}", c.depth);
+        assert!(c.spoke_b == 4 || c.spoke_b == 5, "sector {}", c.spoke_b);
+    }
+    assert_eq!(first, run(&interior(colon, scope, 2, Method::Signed)), "deterministic");
+}
+
+#[test]
+fn hard_rod_fully_outside_the_tube() {
+    // The whole rod 3 radii off the axis, along spoke 0: positive depth however far out, the
+    // wall's outward normal (+y), flagged outside. The published method sees nothing.
+    let colon = straight(20, 5.0, 10.0, 16);
+    let scope = line([5.0, 30.0, 0.0], [90.0, 30.0, 0.0], 12, 2.0);
+    let cs = run(&interior(colon.clone(), scope.clone(), 2, Method::Signed));
+    assert_eq!(cs.len(), 23);
+    for c in &cs {
+        assert!((c.depth - 22.0).abs() < 1e-3, "depth {}", c.depth);
+        assert!(c.normal[1] > 0.9999, "normal {:?}", c.normal);
+        assert_ne!(c.flags & FLAG_OUTSIDE, 0);
+    }
+    assert!(run(&interior(colon, scope, 2, Method::Thesis)).is_empty());
+}
+
+#[test]
+fn hard_crossing_the_wall_back_and_forth() {
+    // Over 200 frames the rod swings from y = 4 to y = 16 and back (wall at 10): depth tracks
+    // y - 10 + r exactly, and the normal never flips (the published normal does).
+    let colon = straight(20, 5.0, 10.0, 16);
+    let mk = |y: f32, m| interior(colon.clone(), line([10.0, y, 0.0], [80.0, y, 0.0], 8, 3.0), 1, m);
+    let spec = mk(4.0, Method::Signed).spec();
+    let mut signed = Detector::new(&spec).unwrap();
+    let mut thesis = Detector::new(&mk(4.0, Method::Thesis).spec()).unwrap();
+    let mut thesis_flips = 0;
+    let mut prev_thesis: Option<[f32; 3]> = None;
+    for f in 0..200 {
+        let y = 10.0 - 6.0 * (f as f32 * TAU / 100.0).cos();
+        let st = mk(y, Method::Signed).state();
+        let cs = signed.detect(&st).unwrap();
+        let want = 3.0 + polygon_sd(&section(&colon, 0), [y, 0.0]);
+        if want > 0.0 {
+            assert_eq!(cs.len(), 8, "frame {f}");
+        }
+        for c in cs {
+            assert!((c.depth - want).abs() < 1e-3, "frame {f}: depth {} want {want}", c.depth);
+            assert!(c.normal[1] > 0.98, "frame {f}: normal {:?}", c.normal);
+        }
+        if let Some(c) = thesis.detect(&st).unwrap().first() {
+            if prev_thesis.is_some_and(|p| dot(p, c.normal) < 0.0) {
+                thesis_flips += 1;
+            }
+            prev_thesis = Some(c.normal);
+        }
+    }
+    assert!(thesis_flips > 0, "the published collision vector flips when the rod crosses");
+}
+
+#[test]
+fn hard_rod_thicker_than_the_tube() {
+    let colon = straight(10, 5.0, 10.0, 16);
+    let cs = run(&interior(colon.clone(), line([0.0, 1.0, 0.0], [45.0, 1.0, 0.0], 6, 15.0), 2, Method::Signed));
+    let want = 15.0 + polygon_sd(&section(&colon, 0), [1.0, 0.0]);
+    assert_eq!(cs.len(), 11);
+    for c in &cs {
+        assert!((c.depth - want).abs() < 1e-4, "depth {} want {want}", c.depth);
+        assert!(c.normal[1] > 0.98, "towards the nearest wall, +y: {:?}", c.normal);
+    }
+}
+
+#[test]
+fn hard_very_thin_rod() {
+    // r = 1e-4 R, centre 0.5 r inside the wall (mid-sector): depth 0.5 r to 1% of r.
+    let colon = straight(10, 5.0, 10.0, 16);
+    let r = 1e-3;
+    let edge = 10.0 * (PI / 16.0).cos(); // mid-sector wall distance from the axis
+    let (c, s) = ((PI / 16.0).cos(), (PI / 16.0).sin());
+    let rho = edge - 0.5 * r; // along the edge's normal
+    let cs = run(&interior(colon, line([2.0, rho * c, rho * s], [40.0, rho * c, rho * s], 5, r), 2, Method::Signed));
+    assert_eq!(cs.len(), 9);
+    for ct in &cs {
+        assert!((ct.depth - 0.5 * r).abs() < 0.01 * r, "depth {}", ct.depth);
+    }
+}
+
+#[test]
+fn hard_rod_entering_through_the_open_end() {
+    // The tube spans x in [0, 50]; the rod runs from x = -40 (outside the patient) to x = 30,
+    // pressed against the wall: only samples past the first ring's plane give contacts.
+    let colon = straight(11, 5.0, 10.0, 16);
+    let scope = line([-40.0, 8.0, 0.0], [30.0, 8.0, 0.0], 15, 3.0);
+    for m in [Method::Signed, Method::Thesis] {
+        let cs = run(&interior(colon.clone(), scope.clone(), 2, m));
+        assert!(!cs.is_empty());
+        for c in &cs {
+            let x = sample_point(&interior(colon.clone(), scope.clone(), 2, m), c)[0];
+            assert!(x >= -1e-4 || m == Method::Thesis && x > -3.0 - 1e-3, "{m:?}: contact at x = {x}");
+        }
+        if m == Method::Signed {
+            // Samples every 2.5 from x = -40: x = 0, 2.5, ... 30 are inside: 13.
+            assert_eq!(cs.len(), 13);
+        }
+    }
+}
+
+#[test]
+fn hard_spokes_clockwise_and_counterclockwise() {
+    let ccw = straight(10, 5.0, 10.0, 16);
+    let cw = tube(10, 16, |i| ccw.points[i], |i, k| ccw.spoke(i, (16 - k) % 16));
+    for (y, z) in [(7.0, 1.0), (-2.0, 8.5), (0.3, -7.7), (12.0, 3.0)] {
+        let scope = line([2.0, y, z], [40.0, y, z], 5, 3.0);
+        let a = run(&interior(ccw.clone(), scope.clone(), 2, Method::Signed));
+        let b = run(&interior(cw.clone(), scope, 2, Method::Signed));
+        assert_eq!(a.len(), b.len());
+        assert!(!a.is_empty());
+        for (p, q) in a.iter().zip(&b) {
+            assert!((p.depth - q.depth).abs() < 1e-4);
+            assert!(dot(p.normal, q.normal) > 0.99999);
+            // The same wall tips carry the weight: spoke k of one is spoke 16 - k of the other.
+            assert_eq!((16 - p.spoke_b as usize) % 16, (q.spoke_b as usize + 1) % 16);
+        }
+    }
+}
+
+#[test]
+fn hard_non_uniform_spoke_angles() {
+    // Twelve spokes at irregular angles and lengths: exact prism distances.
+    let angles = [0.0f32, 0.2, 0.9, 1.1, 1.9, 2.6, 2.8, 3.5, 4.4, 4.9, 5.5, 6.0];
+    let lens = [10.0f32, 12.0, 9.0, 11.0, 10.5, 8.0, 9.5, 12.5, 10.0, 9.0, 11.5, 10.0];
+    let colon = tube(8, 12, |i| [i as f32 * 5.0, 0.0, 0.0], |_, k| [0.0, lens[k] * angles[k].cos(), lens[k] * angles[k].sin()]);
+    let poly = section(&colon, 0);
+    let mut checked = 0;
+    for j in 0..40 {
+        let a = j as f32 * TAU / 40.0;
+        let rho = 6.0 + 2.0 * (j % 3) as f32;
+        let (y, z) = (rho * a.cos(), rho * a.sin());
+        let cs = run(&interior(colon.clone(), line([2.0, y, z], [30.0, y, z], 3, 3.0), 1, Method::Signed));
+        let want = 3.0 + polygon_sd(&poly, [y, z]);
+        assert_eq!(cs.len(), if want > 0.0 { 3 } else { 0 }, "angle {a}: want {want}");
+        for c in &cs {
+            assert!((c.depth - want).abs() < 1e-4, "angle {a}: {} want {want}", c.depth);
+            checked += 1;
+        }
+    }
+    assert!(checked > 30);
+}
+
+#[test]
+fn hard_non_star_section_is_flagged() {
+    // Ring 4's spokes 3 and 4 swapped: the polygon folds. The model check names the ring, and
+    // contacts computed there carry the flag instead of passing as clean geometry.
+    let good = straight(10, 5.0, 10.0, 12);
+    let bad = tube(10, 12, |i| good.points[i], |i, k| {
+        let k = if i == 4 && (k == 3 || k == 4) { 7 - k } else { k };
+        good.spoke(i, k)
+    });
+    assert_eq!(good.first_non_star(), None);
+    assert_eq!(bad.first_non_star().map(|(ring, _)| ring), Some(4));
+    let a = 3.5 * TAU / 12.0;
+    let scope = line([12.0, 8.0 * a.cos(), 8.0 * a.sin()], [28.0, 8.0 * a.cos(), 8.0 * a.sin()], 5, 3.0);
+    let cs = run(&interior(bad, scope, 2, Method::Signed));
+    assert_finite(&cs);
+    assert!(cs.iter().any(|c| c.flags & FLAG_NOT_STAR != 0 && (c.index_b == 3 || c.index_b == 4)), "{cs:?}");
+}
+
+#[test]
+fn hard_translated_and_rotated_scene() {
+    // 100 body lengths away (the tube is 50 long: 5,000 units) and rotated: the same contacts,
+    // depths within 1% of the rod radius (only the inputs' rounding differs).
+    let colon = arc(40, 60.0, PI / 2.0, 12.0, 32);
+    let scope = rod((0..12).map(|i| {
+        let p = 0.1 + 1.2 * i as f32 / 11.0 * 0.6;
+        [69.0 * p.sin(), 60.0 - 69.0 * p.cos(), 1.0]
+    }).collect(), 4.0);
+    let base = interior(colon.clone(), scope.clone(), 4, Method::Signed);
+    let want = run(&base);
+    assert!(want.len() > 20);
+    let (ax, ang, shift) = ([0.48f32, 0.6, 0.64], 1.1f32, [5000.0f32, -3000.0, 4000.0]);
+    let rot = |p: [f32; 3]| {
+        // Rodrigues in f64, then rounded: the moved scene is as exact as f32 inputs can be.
+        let (k, p64) = (ax.map(|v| v as f64), p.map(|v| v as f64));
+        let (s, c) = (ang as f64).sin_cos();
+        let kxp = [k[1] * p64[2] - k[2] * p64[1], k[2] * p64[0] - k[0] * p64[2], k[0] * p64[1] - k[1] * p64[0]];
+        let kp = k[0] * p64[0] + k[1] * p64[1] + k[2] * p64[2];
+        [0, 1, 2].map(|i| p64[i] * c + kxp[i] * s + k[i] * kp * (1.0 - c))
+    };
+    let moved_point = |p: [f32; 3]| { let r = rot(p); [0, 1, 2].map(|i| (r[i] + shift[i] as f64) as f32) };
+    let moved_vec = |p: [f32; 3]| rot(p).map(|v| v as f32);
+    let colon2 = Tube::new(colon.points.iter().map(|&p| moved_point(p)).collect(), colon.radial.iter().map(|&v| moved_vec(v)).collect(), colon.spokes).unwrap();
+    let scope2 = rod(scope.points.iter().map(|&p| moved_point(p)).collect(), 4.0);
+    for m in [Method::Signed, Method::Thesis] {
+        let want = run(&interior(colon.clone(), scope.clone(), 4, m));
+        let got = run(&interior(colon2.clone(), scope2.clone(), 4, m));
+        assert_eq!(want.len(), got.len(), "{m:?}");
+        for (a, b) in want.iter().zip(&got) {
+            assert_eq!(a.sample, b.sample);
+            assert!((a.depth - b.depth).abs() < 0.01 * 4.0, "{m:?}: {} vs {}", a.depth, b.depth);
+            assert!(dot(moved_vec(a.normal), b.normal) > 0.999, "{m:?}");
+        }
+    }
+}
+
+#[test]
+fn hard_uniform_scaling_mm_to_m() {
+    let colon = arc(30, 80.0, PI / 2.0, 15.0, 16);
+    let scope = rod((0..10).map(|i| { let p = 0.2 + 1.1 * i as f32 / 9.0; [91.0 * p.sin(), 80.0 - 91.0 * p.cos(), 2.0] }).collect(), 5.0);
+    let scaled = |s: f32| {
+        let t = Tube::new(colon.points.iter().map(|p| p.map(|v| v * s)).collect(), colon.radial.iter().map(|p| p.map(|v| v * s)).collect(), 16).unwrap();
+        let r = rod(scope.points.iter().map(|p| p.map(|v| v * s)).collect(), 5.0 * s);
+        (t, r)
+    };
+    for m in [Method::Signed, Method::Thesis] {
+        let base = run(&interior(colon.clone(), scope.clone(), 4, m));
+        assert!(base.len() > 10);
+        // A power of two scales every operation exactly: bit-identical contacts, scaled.
+        let (t, r) = scaled(1024.0);
+        let big = run(&interior(t, r, 4, m));
+        assert_eq!(base.len(), big.len());
+        for (a, b) in base.iter().zip(&big) {
+            assert_eq!(a.depth * 1024.0, b.depth, "{m:?}");
+            assert_eq!(a.normal, b.normal);
+            assert_eq!(a.point_b.map(|v| v * 1024.0), b.point_b);
+        }
+        // Millimetres to metres: the same contacts to f32 rounding.
+        let (t, r) = scaled(1e-3);
+        let small = run(&interior(t, r, 4, m));
+        assert_eq!(base.len(), small.len());
+        for (a, b) in base.iter().zip(&small) {
+            assert!((a.depth * 1e-3 - b.depth).abs() < 1e-4 * 5e-3, "{m:?}: {} vs {}", a.depth * 1e-3, b.depth);
+            assert!(dot(a.normal, b.normal) > 0.99999);
+        }
+    }
+}
+
+#[test]
+fn hard_nan_or_inf_in_any_input() {
+    let scene = interior(straight(10, 5.0, 10.0, 8), line([1.0, 7.0, 0.0], [40.0, 7.0, 0.0], 6, 4.0), 2, Method::Signed);
+    let mut d = Detector::new(&scene.spec()).unwrap();
+    let good = scene.state();
+    let n_good = d.detect(&good).unwrap().len();
+    assert!(n_good > 0);
+    let stride = 9 * 3;
+    let cases: [(usize, f32, &str); 4] = [
+        (7 * stride + (1 + 3) * 3 + 1, f32::NAN, "body \"colon\": radial vector 3 of ring 7"),
+        (2 * stride, f32::INFINITY, "body \"colon\": control point 2"),
+        (10 * stride + 4 * 3 + 2, f32::NEG_INFINITY, "body \"scope\": control point 4"),
+        (10 * stride, f32::NAN, "body \"scope\": control point 0"),
+    ];
+    for (i, v, msg) in cases {
+        let mut bad = good.clone();
+        bad[i] = v;
+        let e = d.detect(&bad).unwrap_err();
+        assert!(e.to_string().starts_with(msg), "{e}");
+        // Nothing is lost: the next good frame works and history continues.
+        assert_eq!(d.detect(&good).unwrap().len(), n_good);
+        assert_eq!(d.stats().reacquired, 0);
+    }
+    assert_eq!(d.detect(&good[1..]).unwrap_err(), InputError::StateLength { expected: good.len(), got: good.len() - 1 });
+}
+
+#[test]
+fn hard_counts_beyond_limits() {
+    let body = |shape| BodySpec { name: "colon".into(), shape };
+    let rod = BodySpec { name: "scope".into(), shape: Shape::Rod { points: 4, radius: vec![1.0] } };
+    let pair = vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }];
+    let spec = |shape| SceneSpec::new(vec![body(shape), rod.clone()], pair.clone());
+    let err = |s: SceneSpec| Detector::new(&s).err().expect("rejected");
+    assert!(matches!(err(spec(Shape::Tube { rings: 65_537, spokes: 8 })), SpecError::PointCount { count: 65_537, .. }));
+    assert!(matches!(err(spec(Shape::Tube { rings: 1, spokes: 8 })), SpecError::PointCount { count: 1, .. }));
+    assert!(matches!(err(spec(Shape::Tube { rings: 10, spokes: 257 })), SpecError::SpokeCount { count: 257, .. }));
+    assert!(matches!(err(spec(Shape::Tube { rings: 10, spokes: 2 })), SpecError::SpokeCount { count: 2, .. }));
+    let mut s = spec(Shape::Tube { rings: 10, spokes: 8 });
+    s.precision = 1000;
+    assert_eq!(err(s), SpecError::Precision(1000));
+    // The largest legal tube works end to end.
+    let t = straight(65_536, 0.01, 1.0, 3);
+    let cs = run(&interior(t, line([1.0, 0.6, 0.0], [2.0, 0.6, 0.0], 2, 0.2), 1, Method::Signed));
+    assert_eq!(cs.len(), 2);
+}
+
+#[test]
+fn hard_self_contact_of_a_loop() {
+    // A rod of radius 1 forming a loop whose way out passes about 1.5 above its way in: contacts
+    // where the branches cross, none between neighbouring samples.
+    let r = 1.0;
+    let mut pts: Vec<[f32; 3]> = (0..8).map(|i| [i as f32 * 2.0, 0.0, 0.0]).collect();
+    for i in 0..=12 {
+        let a = i as f32 * TAU / 12.0;
+        pts.push([14.0 + 6.0 * a.sin(), 6.0 - 6.0 * a.cos(), 1.5 * i as f32 / 12.0]);
+    }
+    pts.extend((1..6).map(|i| [14.0 + i as f32 * 2.0, 0.0, 1.5]));
+    let n_pts = pts.len();
+    // Brute-force reference on the same spline, 64 points per segment: the closest approach
+    // of two points further apart along the rod than pi r.
+    let dense: Vec<[f32; 3]> = (0..n_pts - 1)
+        .flat_map(|j| {
+            let c = lumen_detect::spline::Cubic::of_chain(|i| lumen_detect::V3::from(pts[i]), n_pts, j, 0.5);
+            (0..64).map(move |m| c.at(m as f32 / 64.0).into())
+        })
+        .collect();
+    let mut arc = vec![0.0f32];
+    for w in dense.windows(2) {
+        arc.push(arc.last().unwrap() + norm(sub(w[1], w[0])));
+    }
+    let mut dmin = f32::INFINITY;
+    for i in 0..dense.len() {
+        for j in i + 1..dense.len() {
+            if arc[j] - arc[i] > PI * r {
+                dmin = dmin.min(norm(sub(dense[i], dense[j])));
+            }
+        }
+    }
+    assert!((1.3..1.5).contains(&dmin), "the branches pass about 1.5 apart: {dmin}");
+    let scene = Scene::new().rod("scope", rod(pts, r)).pair("scope", "scope", ContactKind::SelfContact).precision(4);
+    let cs = run(&scene);
+    let deepest = cs.iter().map(|c| c.depth).fold(f32::MIN, f32::max);
+    assert!((deepest - (2.0 * r - dmin)).abs() < 0.01, "deepest {deepest}, reference {}", 2.0 * r - dmin);
+    let last = ((n_pts - 1) * 4) as u32;
+    assert!(cs.iter().any(|c| c.sample < 7 * 4 + 2) && cs.iter().any(|c| c.sample > last - 5 * 4 - 2), "both branches");
+    for c in &cs {
+        assert!(c.depth <= deepest && c.depth > 0.0, "depth {}", c.depth);
+        assert!(c.normal[2].abs() > 0.7, "normal across the crossing: {:?}", c.normal);
+        assert_eq!(c.kind, ContactKind::SelfContact as u8);
+        let s = c.sample as usize;
+        // The loop's far side (points 11 to 17, 6 or more from the crossing) touches nothing.
+        assert!(s < 11 * 4 || s > 17 * 4, "sample {s} is not at the crossing");
+    }
+    // Without the loop (a straight rod bent gently) nothing touches itself.
+    let straight_rod = Scene::new().rod("scope", line([0.0, 0.0, 0.0], [50.0, 0.0, 0.0], 25, r)).pair("scope", "scope", ContactKind::SelfContact);
+    assert!(run(&straight_rod).is_empty());
+}
+
+#[test]
+fn hard_rod_against_rod_and_tube_exterior() {
+    // Two parallel rods 3 apart with radii 1 and 2.5: depth 0.5, normal from a to b.
+    let a = line([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], 5, 1.0);
+    let b = line([-5.0, 3.0, 0.0], [25.0, 3.0, 0.0], 7, 2.5);
+    let scene = Scene::new().rod("a", a).rod("b", b).pair("a", "b", ContactKind::Exterior).precision(2);
+    let cs = run(&scene);
+    assert_eq!(cs.len(), 9);
+    for c in &cs {
+        assert!((c.depth - 0.5).abs() < 1e-5 && (c.normal[1] - 1.0).abs() < 1e-6, "{c:?}");
+        assert!((c.weights_b[0] + c.weights_b[1] - 1.0).abs() < 1e-6);
+    }
+    // A rod lying on the outside of a tube: depth r - (rho - R) toward the tube (normal -y).
+    let colon = straight(10, 5.0, 10.0, 16);
+    let scope = line([5.0, 12.0, 0.0], [40.0, 12.0, 0.0], 6, 3.0);
+    let scene = Scene::new().tube("colon", colon).rod("scope", scope).pair("scope", "colon", ContactKind::Exterior).precision(2);
+    let cs = run(&scene);
+    assert_eq!(cs.len(), 11);
+    for c in &cs {
+        assert!((c.depth - 1.0).abs() < 1e-4 && c.normal[1] < -0.9999, "{c:?}");
+        assert_eq!(c.kind, ContactKind::Exterior as u8);
+    }
+}
+
+#[test]
+fn hard_only_declared_pairs_are_computed() {
+    let colon = straight(10, 5.0, 10.0, 16);
+    let scope = line([5.0, 30.0, 0.0], [40.0, 30.0, 0.0], 6, 3.0);
+    let scene = Scene::new().tube("colon", colon).rod("scope", scope).pair("scope", "scope", ContactKind::SelfContact);
+    let mut d = Detector::new(&scene.spec()).unwrap();
+    assert!(d.detect(&scene.state()).unwrap().is_empty(), "the rod is far outside, but interior was not declared");
+    assert_eq!(d.stats().walked + d.stats().reacquired, 0, "and no tube work was done");
+}
