@@ -12,7 +12,11 @@ pub mod contact;
 pub mod error;
 pub mod limits;
 pub mod scene;
+pub mod session;
 pub mod state;
+pub mod wire;
+#[cfg(feature = "iceoryx2")]
+pub mod zero_copy;
 
 pub use contact::{Contact, ContactKind};
 pub use error::{InputError, SpecError};

@@ -1,0 +1,208 @@
+//! Control messages (JSON, on both transports) and the names of each session's channels.
+//!
+//! A client sends a [`ControlRequest`] to the daemon's control channel (iceoryx2
+//! request-response service `lumen/control`, or zenoh queryable key `lumen/control`) and gets
+//! one [`ControlReply`]. Opening a session returns a [`SessionInfo`] naming the frame and
+//! contacts channels to use. See `proto/README.md` for the JSON and a worked example.
+
+use crate::scene::SceneSpec;
+use crate::state::StateLayout;
+use serde::{Deserialize, Serialize};
+
+/// Root of every service name and key expression.
+pub const ROOT: &str = "lumen";
+/// The control channel: iceoryx2 request-response service name and zenoh key expression.
+pub const CONTROL: &str = "lumen/control";
+/// Zenoh liveliness token the daemon holds while it runs.
+pub const DAEMON_ALIVE: &str = "lumen/daemon";
+/// Largest control request the daemon reads, in bytes (a spec with per-point radii of a long rod
+/// fits easily).
+pub const MAX_CONTROL_BYTES: usize = 4 * 1024 * 1024;
+
+/// Name of session `id`'s frame channel (iceoryx2 publish-subscribe + event service of the same
+/// name, or zenoh key).
+pub fn frame_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/frame")
+}
+/// Name of session `id`'s contacts channel (iceoryx2 publish-subscribe + event, or zenoh key).
+pub fn contacts_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/contacts")
+}
+/// Zenoh liveliness key the client of session `id` must hold while it lives.
+pub fn client_alive_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/client")
+}
+
+/// Which transport a session runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transport {
+    /// Shared memory on this machine.
+    Iceoryx2,
+    /// Network (TCP or TLS).
+    Zenoh,
+}
+
+impl std::fmt::Display for Transport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Transport::Iceoryx2 => "iceoryx2",
+            Transport::Zenoh => "zenoh",
+        })
+    }
+}
+
+/// A request on the control channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ControlRequest {
+    /// Open a session for `spec`. The daemon replies [`ControlReply::Opened`] or an error.
+    Open {
+        /// [`crate::wire::PROTOCOL_VERSION`] of the client.
+        version: u16,
+        spec: SceneSpec,
+        /// A free-form name shown by `lumen status`.
+        #[serde(default)]
+        client: String,
+    },
+    /// Describe an open session (for observers): replies [`ControlReply::Described`].
+    Describe { session: u64 },
+    /// Close a session now (clients also close by disappearing).
+    Close { session: u64 },
+    /// List the sessions: replies [`ControlReply::Status`].
+    Status,
+}
+
+/// The reply to a [`ControlRequest`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "reply", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ControlReply {
+    Opened(SessionInfo),
+    Described(SessionInfo),
+    Closed { session: u64 },
+    Status(StatusReport),
+    Error(ControlError),
+}
+
+/// Why a control request failed.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlError {
+    pub code: ErrorCode,
+    /// What was wrong and what to do, for people.
+    pub message: String,
+}
+
+/// Machine-readable class of a [`ControlError`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorCode {
+    /// The request is not valid JSON for [`ControlRequest`].
+    BadRequest,
+    /// The client speaks another protocol version.
+    Version,
+    /// The spec is invalid (the message names the body, pair or field).
+    Spec,
+    /// The spec is valid but beyond this daemon's configured limits (frame size, contacts).
+    Limit,
+    /// The daemon already serves its maximum number of sessions.
+    Busy,
+    /// No such session.
+    UnknownSession,
+    /// The daemon failed to create the session's channels.
+    Internal,
+}
+
+/// Everything a client needs to use a session.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionInfo {
+    /// Session id: goes in every frame header.
+    pub session: u64,
+    pub transport: Transport,
+    /// The scene this session detects.
+    pub spec: SceneSpec,
+    /// `f32` values per frame (the state size).
+    pub floats: u32,
+    /// Bodies per frame.
+    pub bodies: u32,
+    /// Most contacts one reply carries; more are cut and flagged `FLAG_TRUNCATED`.
+    pub max_contacts: u32,
+    /// Frame channel name (see [`frame_name`]).
+    pub frame: String,
+    /// Contacts channel name (see [`contacts_name`]).
+    pub contacts: String,
+    /// Zenoh: liveliness key the client must declare (see [`client_alive_name`]); the session
+    /// is freed when it goes away. iceoryx2: empty (the client's frame publisher is its life).
+    pub alive: String,
+    /// iceoryx2: most observers (extra subscribers) the session's channels admit.
+    pub max_observers: u32,
+}
+
+impl SessionInfo {
+    /// The state layout of this session's frames.
+    pub fn layout(&self) -> StateLayout {
+        StateLayout::of(&self.spec)
+    }
+}
+
+/// Latency percentiles in microseconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Percentiles {
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub p999_us: f64,
+}
+
+/// One session as `lumen status` shows it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SessionStatus {
+    pub session: u64,
+    pub transport: Transport,
+    pub client: String,
+    /// Seconds since the session opened.
+    pub age_s: f64,
+    /// Frames answered (good and bad).
+    pub frames: u64,
+    /// Frames answered with an error status.
+    pub bad_frames: u64,
+    /// Frames skipped because a newer one had arrived.
+    pub skipped: u64,
+    /// Frames per second over the last few seconds.
+    pub fps: f64,
+    /// Detection time of recent frames.
+    pub detect: Percentiles,
+    /// Time from the daemon seeing a frame to its reply being sent, recent frames.
+    pub service: Percentiles,
+    /// Contacts in the last reply.
+    pub contacts_last: u32,
+    /// Mean contacts per good frame.
+    pub contacts_mean: f64,
+}
+
+/// The daemon's answer to [`ControlRequest::Status`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StatusReport {
+    pub pid: u32,
+    pub version: String,
+    pub uptime_s: f64,
+    pub sessions: Vec<SessionStatus>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn requests_are_plain_json() {
+        let json = r#"{"op":"open","version":1,"client":"sim",
+            "spec":{"bodies":[{"name":"scope","shape":{"rod":{"points":3,"radius":[1.0]}}}],"pairs":[]}}"#;
+        let r: ControlRequest = serde_json::from_str(json).unwrap();
+        let ControlRequest::Open { version, spec, client } = r else { panic!("not open: {r:?}") };
+        assert_eq!((version, spec.bodies.len(), client.as_str()), (1, 1, "sim"));
+        assert_eq!(serde_json::to_string(&ControlRequest::Status).unwrap(), r#"{"op":"status"}"#);
+        let e = ControlReply::Error(ControlError { code: ErrorCode::Limit, message: "too big".into() });
+        assert_eq!(serde_json::to_string(&e).unwrap(), r#"{"reply":"error","code":"limit","message":"too big"}"#);
+        assert_eq!(frame_name(42), "lumen/session/42/frame");
+    }
+}
