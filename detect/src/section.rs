@@ -289,17 +289,26 @@ impl TubeCache {
         let den = s1 + s2;
         let l = if den > 0.0 && s1 >= 0.0 && s2 >= 0.0 { (s1 / den).clamp(0.0, 1.0) } else { 0.5 };
         let cprime = cubic.tangent(u);
-        let delta = |k: usize| t.spoke(seg + 1, k) - t.spoke(seg, k);
-        // Outward unit normal of wall strip `e` at position `l` along it.
-        let face_normal = |ta: V3, tb: V3, e: usize, l: f32| -> Option<V3> {
-            let su = cprime + delta(e) * (1.0 - l) + delta((e + 1) % b) * l;
-            let nrm = (tb - ta).cross(&su) * o;
+        // The four spokes around the sector (k-1 .. k+2) and their change along the tube, read
+        // once: the three strips k-1, k, k+1 are all the distance needs.
+        let idx = [(k + b - 1) % b, k, (k + 1) % b, (k + 2) % b];
+        let mut vs = [V3::zeros(); 4];
+        let mut ds = [V3::zeros(); 4];
+        for (j, &kk) in idx.iter().enumerate() {
+            let (s0, s1) = (t.spoke(seg, kk), t.spoke(seg + 1, kk));
+            vs[j] = s0 * (1.0 - u) + s1 * u;
+            ds[j] = s1 - s0;
+        }
+        // Outward unit normal of strip j (spokes j, j+1 of `vs`) at position `l` along it.
+        let face_normal = |j: usize, l: f32| -> Option<V3> {
+            let su = cprime + ds[j] * (1.0 - l) + ds[j + 1] * l;
+            let nrm = (vs[j + 1] - vs[j]).cross(&su) * o;
             let len = nrm.norm();
             (len > 1e-12 * scale * scale && len > 0.0).then(|| nrm / len)
         };
         // Inside or outside: the side of the strip the radial ray from the midline meets.
         let radial_wall = c + a + (bb - a) * l;
-        let radial_n = face_normal(c + a, c + bb, k, l).unwrap_or_else(|| {
+        let radial_n = face_normal(1, l).unwrap_or_else(|| {
             let qn = q.norm();
             if qn > 0.0 { q / qn } else { any_perpendicular(n) }
         });
@@ -308,9 +317,8 @@ impl TubeCache {
         // between them (vertex region), so convex and concave corners of the polygonal section
         // are exact, not only its flat parts.
         let mut best = (f32::INFINITY, k, l, radial_n, radial_wall);
-        for e in [(k + b - 1) % b, k, (k + 1) % b] {
-            let e1 = (e + 1) % b;
-            let (va, vb) = (spoke(e), spoke(e1));
+        for j in 0..3 {
+            let (va, vb) = (vs[j], vs[j + 1]);
             // A wedge turning backwards is a fold: the section is not star-shaped here.
             not_star |= o * va.cross(&vb).dot(&n) < 0.0;
             let (ta, tb) = (c + va, c + vb);
@@ -318,24 +326,24 @@ impl TubeCache {
             let ww = w.norm_squared();
             let lam = if ww > 0.0 { (p - ta).dot(&w) / ww } else { 0.0 };
             if ww > 0.0 && (0.0..=1.0).contains(&lam) {
-                if let Some(nf) = face_normal(ta, tb, e, lam) {
+                if let Some(nf) = face_normal(j, lam) {
                     let h = (p - ta - w * lam).dot(&nf);
                     if h.abs() < best.0 {
-                        best = (h.abs(), e, lam, nf, p - nf * h);
+                        best = (h.abs(), idx[j], lam, nf, p - nf * h);
                     }
                     continue;
                 }
             }
             // Vertex region: distance to the tip's line along the tube at the clamped end.
-            let (lc, tip, kt) = if lam < 0.5 { (0.0, ta, e) } else { (1.0, tb, e1) };
-            let tt = cprime + delta(kt);
+            let (lc, tip, jt) = if lam < 0.5 { (0.0, ta, j) } else { (1.0, tb, j + 1) };
+            let tt = cprime + ds[jt];
             let r = p - tip;
             let along = tt.try_normalize(0.0).map_or(V3::zeros(), |d| d * r.dot(&d));
             let perp = r - along;
             let d = perp.norm();
             if d < best.0 {
                 let nv = if d > 1e-6 * scale { perp / d * sign } else { radial_n };
-                best = (d, e, lc, nv, tip + along);
+                best = (d, idx[j], lc, nv, tip + along);
             }
         }
         let (d, k, l, normal, wall) = best;
