@@ -66,7 +66,7 @@ impl Detector {
             })
             .collect();
         let pair_state = pairs.iter().map(|_| PairState::default()).collect();
-        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 1 })
+        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 0 })
     }
 
     /// The scene this detector serves.
@@ -85,8 +85,9 @@ impl Detector {
         self.reset();
     }
 
-    /// Number of radial re-projections of the signed method (default 1; 0 is faster and
-    /// first-order accurate).
+    /// Number of axial re-projections of the signed method (default 0). Each one moves the
+    /// evaluated section to the foot of the last estimate, which helps where the wall slopes
+    /// steeply along the tube, at the cost of one more evaluation per sample.
     pub fn set_refine(&mut self, refine: u32) {
         self.refine = refine;
     }

@@ -145,8 +145,10 @@ impl TubeCache {
         self.ring[i]
     }
 
-    fn compute_ring(&mut self, t: &TubeView, i: usize) -> Ring {
-        let tangent = if i + 1 < t.rings { self.cubic(t, i).tangent(0.0) } else { self.cubic(t, i - 1).tangent(1.0) };
+    fn compute_ring(&self, t: &TubeView, i: usize) -> Ring {
+        // The chord through the neighbours orients the ring (and stands in for a collapsed one):
+        // the spline's own tangent would cost a whole segment's coefficients per ring.
+        let tangent = t.point((i + 1).min(t.rings - 1)) - t.point(i.saturating_sub(1));
         // Two "diagonals" of the ring: their cross product is the ring's area normal for any
         // planar section, at O(1) cost instead of O(B).
         let b = t.spokes;
@@ -239,6 +241,18 @@ impl TubeCache {
         let nn = n.norm();
         n = if nn > 1e-6 { n / nn } else { r0.n };
         let spoke = |k: usize| t.spoke(seg, k) * (1.0 - u) + t.spoke(seg + 1, k) * u;
+        let tiny2 = (1e-6 * r0.size.max(r1.size)).powi(2);
+        // Direction of spoke k for the sector walk: a zero-length spoke has none, so it takes
+        // the bisector of its neighbours and splits their wedge (its tip is the centre).
+        let dir = |k: usize| {
+            let v = spoke(k);
+            if v.norm_squared() > tiny2 {
+                v
+            } else {
+                let (l, r) = (spoke((k + b - 1) % b), spoke((k + 1) % b));
+                l.try_normalize(0.0).unwrap_or(l) + r.try_normalize(0.0).unwrap_or(r)
+            }
+        };
         let d = p - c;
         let mut q = d - n * d.dot(&n);
         let scale = r0.size.max(r1.size);
@@ -252,14 +266,14 @@ impl TubeCache {
         let mut k = match k_guess {
             Some(k) if k < b => k,
             _ => {
-                let a0 = spoke(0);
+                let a0 = dir(0);
                 let ang = (o * a0.cross(&q).dot(&n)).atan2(a0.dot(&q));
                 let f = ang.rem_euclid(std::f32::consts::TAU) / std::f32::consts::TAU;
                 ((f * b as f32) as usize).min(b - 1)
             }
         };
         // Sector walk; a reversal of direction means the section is not star-shaped here.
-        let (mut a, mut bb) = (spoke(k), spoke((k + 1) % b));
+        let (mut a, mut bb) = (dir(k), dir((k + 1) % b));
         let mut last_step = 0i32;
         let mut not_star = false;
         let (mut s1, mut s2);
@@ -280,10 +294,10 @@ impl TubeCache {
             k = if step < 0 { (k + b - 1) % b } else { (k + 1) % b };
             if step < 0 {
                 bb = a;
-                a = spoke(k);
+                a = dir(k);
             } else {
                 a = bb;
-                bb = spoke((k + 1) % b);
+                bb = dir((k + 1) % b);
             }
         }
         let den = s1 + s2;
@@ -306,17 +320,18 @@ impl TubeCache {
             let len = nrm.norm();
             (len > 1e-12 * scale * scale && len > 0.0).then(|| nrm / len)
         };
-        // Inside or outside: the side of the strip the radial ray from the midline meets.
-        let radial_wall = c + a + (bb - a) * l;
-        let radial_n = face_normal(1, l).unwrap_or_else(|| {
+        // Fallback direction where the wall has no normal (collapsed patch).
+        let radial = || {
             let qn = q.norm();
             if qn > 0.0 { q / qn } else { any_perpendicular(n) }
-        });
-        let sign = if (p - radial_wall).dot(&radial_n) > 0.0 { 1.0 } else { -1.0 };
-        // Distance: the nearest of the three local strips (face region) or the tip lines
-        // between them (vertex region), so convex and concave corners of the polygonal section
-        // are exact, not only its flat parts.
-        let mut best = (f32::INFINITY, k, l, radial_n, radial_wall);
+        };
+        // The nearest of the three local strips (face region) or of the tip lines between them
+        // (vertex region), so convex and concave corners of the polygonal section are exact, not
+        // only its flat parts. The side comes from that nearest feature: a face's own normal,
+        // or, at a vertex, an adjacent face's (every direction of a vertex's region lies within
+        // the cone of its faces' normals, or of their opposites): the pseudo-normal rule.
+        // (distance, sign, spoke, l, outward normal, wall point)
+        let mut best = (f32::INFINITY, 1.0f32, k, l, V3::zeros(), c);
         for j in 0..3 {
             let (va, vb) = (vs[j], vs[j + 1]);
             // A wedge turning backwards is a fold: the section is not star-shaped here.
@@ -325,28 +340,35 @@ impl TubeCache {
             let w = tb - ta;
             let ww = w.norm_squared();
             let lam = if ww > 0.0 { (p - ta).dot(&w) / ww } else { 0.0 };
-            if ww > 0.0 && (0.0..=1.0).contains(&lam) {
-                if let Some(nf) = face_normal(j, lam) {
+            let lc = lam.clamp(0.0, 1.0);
+            let nf = face_normal(j, lc);
+            if lam == lc && ww > 0.0 {
+                if let Some(nf) = nf {
                     let h = (p - ta - w * lam).dot(&nf);
                     if h.abs() < best.0 {
-                        best = (h.abs(), idx[j], lam, nf, p - nf * h);
+                        best = (h.abs(), h.signum(), idx[j], lam, nf, p - nf * h);
                     }
                     continue;
                 }
             }
             // Vertex region: distance to the tip's line along the tube at the clamped end.
-            let (lc, tip, jt) = if lam < 0.5 { (0.0, ta, j) } else { (1.0, tb, j + 1) };
+            let (tip, jt) = if lc < 0.5 { (ta, j) } else { (tb, j + 1) };
             let tt = cprime + ds[jt];
             let r = p - tip;
             let along = tt.try_normalize(0.0).map_or(V3::zeros(), |d| d * r.dot(&d));
             let perp = r - along;
             let d = perp.norm();
             if d < best.0 {
-                let nv = if d > 1e-6 * scale { perp / d * sign } else { radial_n };
-                best = (d, idx[j], lc, nv, tip + along);
+                let side = nf.unwrap_or_else(radial);
+                let sign = if perp.dot(&side) < 0.0 { -1.0 } else { 1.0 };
+                let nv = if d > 1e-6 * scale { perp / d * sign } else { side };
+                best = (d, sign, idx[j], lc, nv, tip + along);
             }
         }
-        let (d, k, l, normal, wall) = best;
+        if best.0 == f32::INFINITY {
+            best.4 = radial();
+        }
+        let (d, sign, k, l, normal, wall) = best;
         Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star }
     }
 }
