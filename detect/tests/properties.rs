@@ -1,0 +1,168 @@
+//! Property tests over random tubes and rods: no NaN or panic on anything (even tubes bent
+//! tighter than their radius, whose wall folds through itself), and the same contacts after any
+//! rigid motion on valid tubes.
+
+mod common;
+use common::*;
+use lumen_detect::{Contact, Detector, Method, Rod, Tube};
+use proptest::prelude::*;
+use std::f32::consts::TAU;
+
+/// A random smooth-ish tube: a midline turning by bounded angles, star-shaped rings of random
+/// spoke lengths (uniform angles, so always star-shaped), occasional coincident points.
+fn tube_strategy(valid: bool) -> impl Strategy<Value = Tube> {
+    (2usize..30, 3usize..20, 1.0f32..8.0, 4.0f32..15.0, any::<u64>()).prop_map(move |(rings, spokes, step, radius, seed)| {
+        // A valid tube bends no tighter than twice its largest radius: its wall never folds.
+        let max_turn = if valid { step / (2.0 * 1.4 * radius) } else { 0.8 };
+        let mut rng = seed;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let mut p = [0.0f32; 3];
+        let mut dir = [1.0f32, 0.0, 0.0];
+        let mut points = vec![];
+        for i in 0..rings {
+            points.push(p);
+            let turn = [next() - 0.5, next() - 0.5, next() - 0.5];
+            dir = add(dir, scale(turn, max_turn));
+            dir = scale(dir, 1.0 / norm(dir));
+            let dup = i > 0 && next() < 0.1;
+            if !dup {
+                p = add(p, scale(dir, step));
+            }
+        }
+        let radial = (0..rings)
+            .flat_map(|i| {
+                let t = if i + 1 < rings { sub(points[i + 1], points[i]) } else { sub(points[i], points[i - 1]) };
+                let t = if norm(t) > 0.0 { scale(t, 1.0 / norm(t)) } else { [1.0, 0.0, 0.0] };
+                let a = if t[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+                let u = { let c = [t[1] * a[2] - t[2] * a[1], t[2] * a[0] - t[0] * a[2], t[0] * a[1] - t[1] * a[0]]; scale(c, 1.0 / norm(c)) };
+                let v = [t[1] * u[2] - t[2] * u[1], t[2] * u[0] - t[0] * u[2], t[0] * u[1] - t[1] * u[0]];
+                (0..spokes).map(|k| (u, v, k)).collect::<Vec<_>>()
+            })
+            .map(|(u, v, k)| {
+                let a = k as f32 * TAU / spokes as f32;
+                let r = radius * (0.6 + 0.8 * next());
+                add(scale(u, r * a.cos()), scale(v, r * a.sin()))
+            })
+            .collect();
+        Tube::new(points, radial, spokes).unwrap()
+    })
+}
+
+/// A rod near the tube: points jittered around the midline, some outside the wall (within
+/// about a radius of it for valid tubes, anywhere near for wild ones).
+fn scene_strategy(valid: bool) -> impl Strategy<Value = (Tube, Rod)> {
+    (tube_strategy(valid), 2usize..12, 0.3f32..6.0, prop::collection::vec((-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0), 12)).prop_map(move |(t, n, r, jit)| {
+        let size = (0..t.spokes).map(|k| norm(t.spoke(0, k))).fold(0.0, f32::max);
+        let span = if valid { 1.2 * size } else { 20.0 };
+        let pts = (0..n)
+            .map(|j| {
+                let i = (j * (t.rings() - 1)) / (n - 1).max(1);
+                let (x, y, z) = jit[j];
+                add(t.points[i], [x * span, y * span, z * span])
+            })
+            .collect();
+        (t, rod(pts, r))
+    })
+}
+
+fn rotate(p: [f32; 3], axis: [f32; 3], ang: f32) -> [f64; 3] {
+    let k = { let n = norm(axis); axis.map(|v| (v / n) as f64) };
+    let p = p.map(|v| v as f64);
+    let (s, c) = (ang as f64).sin_cos();
+    let kxp = [k[1] * p[2] - k[2] * p[1], k[2] * p[0] - k[0] * p[2], k[0] * p[1] - k[1] * p[0]];
+    let kp = k[0] * p[0] + k[1] * p[1] + k[2] * p[2];
+    [0, 1, 2].map(|i| p[i] * c + kxp[i] * s + k[i] * kp * (1.0 - c))
+}
+
+fn check_contacts(cs: &[Contact]) -> Result<(), TestCaseError> {
+    for c in cs {
+        let vals = c.point_a.iter().chain(&c.point_b).chain(&c.normal).chain(&c.weights_b).chain([&c.depth, &c.param_a, &c.param_b]);
+        prop_assert!(vals.clone().all(|v| v.is_finite()), "non-finite: {:?}", c);
+        prop_assert!((norm(c.normal) - 1.0).abs() < 1e-3, "normal {:?}", c.normal);
+        prop_assert!((c.weights_b.iter().sum::<f32>() - 1.0).abs() < 1e-4);
+        prop_assert!(c.weights_b.iter().all(|w| (-1e-6..=1.0 + 1e-6).contains(w)));
+        prop_assert!((0.0..=1.0).contains(&c.param_a) && (0.0..=1.0).contains(&c.param_b));
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    #[test]
+    fn never_nan_or_panic((t, r) in scene_strategy(false), x in 1u32..6) {
+        for m in [Method::Signed, Method::Thesis] {
+            let cs = run(&interior(t.clone(), r.clone(), x, m));
+            check_contacts(&cs)?;
+            if m == Method::Signed {
+                prop_assert!(cs.iter().all(|c| c.depth > 0.0));
+            }
+        }
+    }
+
+    #[test]
+    fn invariant_under_rigid_motion((t, r) in scene_strategy(true), axis in (-1.0f32..1.0, -1.0f32..1.0, 0.1f32..1.0), ang in 0.0f32..6.28, shift in (-1e3f32..1e3, -1e3f32..1e3, -1e3f32..1e3)) {
+        let axis = [axis.0, axis.1, axis.2];
+        let shift = [shift.0 as f64, shift.1 as f64, shift.2 as f64];
+        let mp = |p: [f32; 3]| { let q = rotate(p, axis, ang); [0, 1, 2].map(|i| (q[i] + shift[i]) as f32) };
+        let mv = |p: [f32; 3]| rotate(p, axis, ang).map(|v| v as f32);
+        let t2 = Tube::new(t.points.iter().map(|&p| mp(p)).collect(), t.radial.iter().map(|&v| mv(v)).collect(), t.spokes).unwrap();
+        let r2 = rod(r.points.iter().map(|&p| mp(p)).collect(), r.radius[0]);
+        // Tolerance: the inputs' rounding at the moved scene's magnitude, relative to its size.
+        let tol = 1e-3 * (1.0 + r.radius[0]) + 2e-6 * 1.8e3;
+        let a = run(&interior(t, r.clone(), 3, Method::Signed));
+        let b = run(&interior(t2, r2, 3, Method::Signed));
+        let depth_of = |cs: &[Contact], s: u32| cs.iter().find(|c| c.sample == s).map(|c| c.depth);
+        for c in &a {
+            match depth_of(&b, c.sample) {
+                Some(d) => prop_assert!((d - c.depth).abs() < tol, "sample {}: {} vs {}", c.sample, c.depth, d),
+                None => prop_assert!(c.depth < tol, "sample {} lost after the motion (depth {})", c.sample, c.depth),
+            }
+        }
+        for c in &b {
+            if depth_of(&a, c.sample).is_none() {
+                prop_assert!(c.depth < tol, "sample {} appeared after the motion (depth {})", c.sample, c.depth);
+            }
+        }
+    }
+}
+
+#[test]
+fn detector_reuse_matches_fresh_detectors() {
+    // History must never change the answer on a smooth sequence: coherent frames equal fresh
+    // (re-acquiring) detectors frame by frame.
+    let colon = arc(100, 120.0, 2.5, 18.0, 20);
+    let mk = |f: usize| {
+        let y = 9.0 + 9.0 * (f as f32 * 0.15).sin();
+        interior(colon.clone(), line([5.0 + f as f32, y, 2.0], [150.0 + f as f32, y + 60.0, 2.0], 25, 5.0), 3, Method::Signed)
+    };
+    let mut d = Detector::new(&mk(0).spec()).unwrap();
+    for f in 0..60 {
+        let s = mk(f);
+        let warm = d.detect(&s.state()).unwrap().to_vec();
+        assert_eq!(warm, run(&s), "frame {f}");
+    }
+}
+
+#[test]
+fn generated_scenes_exercise_contacts_inside_and_outside() {
+    // The properties above mean little if the random scenes rarely touch: check that they do.
+    use lumen_detect::proto::contact::FLAG_OUTSIDE;
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    let (mut with, mut outside, n) = (0, 0, 200);
+    for _ in 0..n {
+        let (t, r) = scene_strategy(true).new_tree(&mut runner).unwrap().current();
+        let cs = run(&interior(t, r, 3, Method::Signed));
+        with += usize::from(!cs.is_empty());
+        outside += usize::from(cs.iter().any(|c| c.flags & FLAG_OUTSIDE != 0));
+    }
+    assert!(with > n / 2, "{with} of {n} scenes have contacts");
+    assert!(outside > n / 5, "{outside} of {n} scenes have samples outside the wall");
+}
