@@ -115,6 +115,22 @@ impl Detector {
     /// is kept, so the next good frame continues.
     pub fn detect(&mut self, state: &[f32]) -> Result<&[Contact], InputError> {
         self.layout.check(&self.spec, state)?;
+        Ok(self.run(state))
+    }
+
+    /// [`Detector::detect`] for a state the caller has already checked with
+    /// [`StateLayout::check`] (the daemon validates every frame on receipt). It skips the scan of
+    /// every float, which reads the whole tube and would make the frame cost grow with the
+    /// tube's length; only the length is checked. A non-finite value that slips through cannot
+    /// panic or loop, but the contacts near it are meaningless.
+    pub fn detect_prevalidated(&mut self, state: &[f32]) -> Result<&[Contact], InputError> {
+        if state.len() != self.layout.floats {
+            return Err(InputError::StateLength { expected: self.layout.floats, got: state.len() });
+        }
+        Ok(self.run(state))
+    }
+
+    fn run(&mut self, state: &[f32]) -> &[Contact] {
         // Local origin: the scene's first control point (see `view`).
         let origin = V3::new(state[0], state[1], state[2]);
         let x = self.spec.precision as usize;
@@ -177,7 +193,7 @@ impl Detector {
             }
         }
         self.stats = FrameStats { walked: counters.walked, reacquired: counters.reacquired, candidates: counters.candidates, contacts: self.contacts.len() as u32 };
-        Ok(&self.contacts)
+        &self.contacts
     }
 
     /// Samples rod `i` once per frame, and builds its BVH when `with_bvh`.

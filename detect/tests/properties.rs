@@ -166,3 +166,26 @@ fn generated_scenes_exercise_contacts_inside_and_outside() {
     assert!(with > n / 2, "{with} of {n} scenes have contacts");
     assert!(outside > n / 5, "{outside} of {n} scenes have samples outside the wall");
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 100, ..ProptestConfig::default() })]
+
+    /// Garbage that skipped validation (NaN, infinities, huge values anywhere) never panics or
+    /// hangs the unchecked path, and the checked path rejects it.
+    #[test]
+    fn prevalidated_path_survives_garbage((t, r) in scene_strategy(false), hits in prop::collection::vec((any::<prop::sample::Index>(), prop_oneof![Just(f32::NAN), Just(f32::INFINITY), Just(-f32::INFINITY), Just(3.0e38f32), Just(-1e-40f32)]), 1..6)) {
+        for m in [Method::Signed, Method::Thesis] {
+            let scene = interior(t.clone(), r.clone(), 2, m);
+            let mut state = scene.state();
+            let mut finite = true;
+            for (i, v) in &hits {
+                let n = state.len();
+                state[i.index(n)] = *v;
+                finite &= v.is_finite();
+            }
+            let mut d = Detector::new(&scene.spec()).unwrap();
+            let _ = d.detect_prevalidated(&state).unwrap().len();
+            prop_assert_eq!(d.detect(&state).is_ok(), finite);
+        }
+    }
+}

@@ -85,17 +85,16 @@ impl StateLayout {
     }
 }
 
-/// True when no value is NaN or infinite: the exponent bits of a finite `f32` are not all ones.
+/// True when no value is NaN or infinite.
+///
+/// A finite `f32` has exponent bits `e = bits & 0x7f80_0000` below `0x7f80_0000`, so
+/// `e + 0x0080_0000` reaches bit 31 exactly for NaN and infinities. OR-ing those sums is a
+/// plain integer and/add/or reduction, which vectorises on every x86-64 (an early-exit `all` or
+/// a `bool` fold does not).
 pub fn all_finite(values: &[f32]) -> bool {
     const EXP: u32 = 0x7f80_0000;
-    let mut chunks = values.chunks_exact(64);
-    for c in &mut chunks {
-        let bad = c.iter().fold(0u32, |acc, v| acc | u32::from(v.to_bits() & EXP == EXP));
-        if bad != 0 {
-            return false;
-        }
-    }
-    chunks.remainder().iter().all(|v| v.is_finite())
+    let acc = values.iter().fold(0u32, |acc, v| acc | (v.to_bits() & EXP).wrapping_add(0x0080_0000));
+    acc & 0x8000_0000 == 0
 }
 
 #[cfg(test)]
@@ -105,7 +104,7 @@ mod tests {
 
     #[test]
     fn all_finite_sees_every_position() {
-        for n in [0, 1, 63, 64, 65, 200] {
+        for n in [0, 1, 255, 256, 257, 600] {
             let mut v = vec![1.5f32; n];
             assert!(all_finite(&v));
             for i in 0..n {
