@@ -327,11 +327,14 @@ impl TubeCache {
         };
         // The nearest of the three local strips (face region) or of the tip lines between them
         // (vertex region), so convex and concave corners of the polygonal section are exact, not
-        // only its flat parts. The side comes from that nearest feature: a face's own normal,
-        // or, at a vertex, an adjacent face's (every direction of a vertex's region lies within
-        // the cone of its faces' normals, or of their opposites): the pseudo-normal rule.
+        // only its flat parts. The side comes from a face's own normal when a face is nearest;
+        // at a vertex, from the section itself: which side of the wall edge of its sector the
+        // point lies, seen along the section normal. A star-shaped section crosses each ray
+        // from its centre once, so this holds at any distance, where a vertex's pseudo-normal
+        // (extrapolated along a tip line that twists) does not.
         // (distance, sign, spoke, l, outward normal, wall point)
         let mut best = (f32::INFINITY, 1.0f32, k, l, V3::zeros(), c);
+        let mut vertex: Option<V3> = None;
         for j in 0..3 {
             let (va, vb) = (vs[j], vs[j + 1]);
             // A wedge turning backwards is a fold: the section is not star-shaped here.
@@ -341,12 +344,12 @@ impl TubeCache {
             let ww = w.norm_squared();
             let lam = if ww > 0.0 { (p - ta).dot(&w) / ww } else { 0.0 };
             let lc = lam.clamp(0.0, 1.0);
-            let nf = face_normal(j, lc);
             if lam == lc && ww > 0.0 {
-                if let Some(nf) = nf {
+                if let Some(nf) = face_normal(j, lc) {
                     let h = (p - ta - w * lam).dot(&nf);
                     if h.abs() < best.0 {
                         best = (h.abs(), h.signum(), idx[j], lam, nf, p - nf * h);
+                        vertex = None;
                     }
                     continue;
                 }
@@ -359,13 +362,16 @@ impl TubeCache {
             let perp = r - along;
             let d = perp.norm();
             if d < best.0 {
-                let side = nf.unwrap_or_else(radial);
-                let sign = if perp.dot(&side) < 0.0 { -1.0 } else { 1.0 };
-                let nv = if d > 1e-6 * scale { perp / d * sign } else { side };
-                best = (d, sign, idx[j], lc, nv, tip + along);
+                best = (d, 1.0, idx[j], lc, V3::zeros(), tip + along);
+                vertex = Some(perp);
             }
         }
-        if best.0 == f32::INFINITY {
+        if let Some(perp) = vertex {
+            let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
+            let sign = if inner > 0.0 { -1.0 } else { 1.0 };
+            best.1 = sign;
+            best.4 = if best.0 > 1e-6 * scale { perp / best.0 * sign } else { radial() };
+        } else if best.0 == f32::INFINITY {
             best.4 = radial();
         }
         let (d, sign, k, l, normal, wall) = best;
