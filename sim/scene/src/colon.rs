@@ -12,8 +12,9 @@
 //! every [`ColonParams::ring_spacing`] along its arc. A candidate is kept only if its bends are
 //! gentle enough for the lumen (bend radius at least [`MIN_BEND_RATIO`] times the local lumen
 //! radius, so rings never cross inside the lumen) and its loops keep their walls apart (midline
-//! points far apart along the arc are further apart than the sum of their radii plus
-//! [`MIN_WALL_GAP_MM`]); otherwise the next candidate of the same seed is tried, and after
+//! points more than `max(40 mm, 1.5 (R_i + R_j))` apart along the arc are further apart in space
+//! than `R_i + R_j` plus [`MIN_WALL_GAP_MM`], `R` the largest radius of each ring; nearer pairs
+//! are the bend check's business, since no chord exceeds its arc); otherwise the next candidate of the same seed is tried, and after
 //! [`MAX_ATTEMPTS`] the unperturbed template (which passes; a test checks it) is used.
 //!
 //! **Lumen.** Radius `R(s, theta)` in `[radius_mm[0], radius_mm[1]]` (default 20-35 mm, the
