@@ -86,6 +86,10 @@ pub struct Gap {
     pub l: f32,
     /// The sector walk found the section not star-shaped.
     pub not_star: bool,
+    /// Squared distance of the point from the midline point of its section.
+    pub rho2: f32,
+    /// Size scale of the section (largest sampled spoke of its two rings).
+    pub size: f32,
 }
 
 impl Gap {
@@ -153,23 +157,21 @@ impl TubeCache {
         // planar section, at O(1) cost instead of O(B).
         let b = t.spokes;
         let s = [t.spoke(i, 0), t.spoke(i, b / 4), t.spoke(i, b / 2), t.spoke(i, 3 * b / 4)];
-        let size = s.iter().map(|v| v.norm()).fold(0.0f32, f32::max);
+        let size2 = s.iter().map(|v| v.norm_squared()).fold(0.0f32, f32::max);
         let area = (s[2] - s[0]).cross(&(s[3] - s[1]));
-        let tn = tangent.norm();
-        let an = area.norm();
-        let t_hat = if tn > 0.0 { tangent / tn } else { V3::zeros() };
-        let mut o = 1.0;
-        let n = if an > 1e-6 * size * size && an > 0.0 {
-            let a_hat = area / an;
-            let c = a_hat.dot(&t_hat);
-            o = if c < 0.0 { -1.0 } else { 1.0 };
-            // A ring nearly parallel to the midline cannot slice it: fall back to the tangent.
-            if tn == 0.0 || c.abs() > 0.1 { a_hat * o } else { t_hat }
-        } else if tn > 0.0 {
-            t_hat
+        let (an2, tn2) = (area.norm_squared(), tangent.norm_squared());
+        let at = area.dot(&tangent);
+        let o = if at < 0.0 { -1.0 } else { 1.0 };
+        // Squared comparisons: one square root per ring on the common path. A ring nearly
+        // parallel to the midline (|cos| <= 0.1) cannot slice it: the tangent stands in.
+        let n = if an2 > 1e-12 * size2 * size2 && an2 > 0.0 && (tn2 == 0.0 || at * at > 0.01 * an2 * tn2) {
+            area * (o / an2.sqrt())
+        } else if tn2 > 0.0 {
+            tangent / tn2.sqrt()
         } else {
             V3::x()
         };
+        let size = size2.sqrt();
         Ring { n, o, size }
     }
 
@@ -210,12 +212,6 @@ impl TubeCache {
         Axial::Lost
     }
 
-    /// Size scale of segment `i` (largest sampled spoke of its rings, or its chord).
-    pub fn scale(&mut self, t: &TubeView, i: usize) -> f32 {
-        let a = self.ring(t, i).size.max(self.ring(t, i + 1).size);
-        a.max((t.point(i + 1) - t.point(i)).norm())
-    }
-
     /// The signed gap of `p` in segment `seg` at `u`, starting the sector walk at `k_guess`
     /// (`None`: estimate from the angle), with `refine` re-projections.
     pub fn gap(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>, refine: u32) -> Gap {
@@ -237,9 +233,11 @@ impl TubeCache {
         let (r0, r1) = (self.ring(t, seg), self.ring(t, seg + 1));
         let o = if r0.size > 0.0 { r0.o } else { r1.o };
         let c = cubic.at(u);
+        // The section normal; only signs are taken against it, so it is left unnormalised.
         let mut n = r0.n * (1.0 - u) + r1.n * u;
-        let nn = n.norm();
-        n = if nn > 1e-6 { n / nn } else { r0.n };
+        if n.norm_squared() < 1e-12 {
+            n = r0.n;
+        }
         let spoke = |k: usize| t.spoke(seg, k) * (1.0 - u) + t.spoke(seg + 1, k) * u;
         let tiny2 = (1e-6 * r0.size.max(r1.size)).powi(2);
         // Direction of spoke k for the sector walk: a zero-length spoke has none, so it takes
@@ -254,13 +252,15 @@ impl TubeCache {
             }
         };
         let d = p - c;
-        let mut q = d - n * d.dot(&n);
         let scale = r0.size.max(r1.size);
-        if q.norm_squared() <= (1e-6 * scale) * (1e-6 * scale) {
+        // Signs of (a x q).n do not depend on q's component along n, so the offset `d` itself
+        // serves as the in-plane direction `q`, unless it lies on the midline's axis.
+        let mut q = d;
+        if d.cross(&n).norm_squared() <= (1e-6 * scale).powi(2) * n.norm_squared() {
             // On the midline: every direction is as near; take the first spoke's, deterministically.
             q = spoke(0);
             if q.norm_squared() == 0.0 {
-                q = any_perpendicular(n);
+                q = any_perpendicular(n.normalize());
             }
         }
         let mut k = match k_guess {
@@ -322,8 +322,8 @@ impl TubeCache {
         };
         // Fallback direction where the wall has no normal (collapsed patch).
         let radial = || {
-            let qn = q.norm();
-            if qn > 0.0 { q / qn } else { any_perpendicular(n) }
+            let qp = q - n * (q.dot(&n) / n.norm_squared());
+            qp.try_normalize(0.0).unwrap_or_else(|| any_perpendicular(n.normalize()))
         };
         // The nearest of the three local strips (face region) or of the tip lines between them
         // (vertex region), so convex and concave corners of the polygonal section are exact, not
@@ -374,7 +374,8 @@ impl TubeCache {
         } else if best.0 == f32::INFINITY {
             best.4 = radial();
         }
+        let d_mid2 = (p - c).norm_squared();
         let (d, sign, k, l, normal, wall) = best;
-        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star }
+        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star, rho2: d_mid2, size: scale }
     }
 }

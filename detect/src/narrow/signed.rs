@@ -151,11 +151,17 @@ pub fn interior(
             None => Axial::Lost,
         };
         let mut k_guess = tr.valid.then_some(tr.sector as usize);
+        let r = rod.radius[s];
+        let mut gap = None;
         if let Axial::In { seg, u } = axial {
+            let g = cache.gap(t, &p, seg, u, k_guess, params.refine);
             // A walk that lands far from the midline has followed folded planes: re-acquire.
-            let scale = cache.scale(t, seg);
-            if (cache.cubic(t, seg).at(u) - p).norm() > 8.0 * scale + 2.0 * rod.radius[s] {
+            let chord2 = (t.point(seg + 1) - t.point(seg)).norm_squared();
+            let reach = 8.0 * g.size.max(chord2.sqrt()) + 2.0 * r;
+            if g.rho2 > reach * reach {
                 axial = Axial::Lost;
+            } else {
+                gap = Some(g);
             }
         }
         if axial == Axial::Lost {
@@ -182,10 +188,12 @@ pub fn interior(
                 continue;
             }
         };
-        let g = cache.gap(t, &p, seg, u, k_guess, params.refine);
+        let g = match gap {
+            Some(g) => g,
+            None => cache.gap(t, &p, seg, u, k_guess, params.refine),
+        };
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
-        let r = rod.radius[s];
         let depth = g.sd + r;
         if depth > -emit.margin {
             out.push(tube_contact(rod, s, &g, r, depth, g.normal, emit, t.spokes));
