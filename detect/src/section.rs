@@ -335,35 +335,45 @@ impl TubeCache {
         // (distance, sign, spoke, l, outward normal, wall point)
         let mut best = (f32::INFINITY, 1.0f32, k, l, V3::zeros(), c);
         let mut vertex: Option<V3> = None;
+        // Where the point projects along each strip: inside [0, 1] it faces the strip; beyond
+        // both ends of neighbouring strips it faces the tip between them.
+        let mut lam = [0.0f32; 3];
         for j in 0..3 {
             let (va, vb) = (vs[j], vs[j + 1]);
             // A wedge turning backwards is a fold: the section is not star-shaped here.
             not_star |= o * va.cross(&vb).dot(&n) < 0.0;
-            let (ta, tb) = (c + va, c + vb);
-            let w = tb - ta;
+            let w = vb - va;
             let ww = w.norm_squared();
-            let lam = if ww > 0.0 { (p - ta).dot(&w) / ww } else { 0.0 };
-            let lc = lam.clamp(0.0, 1.0);
-            if lam == lc && ww > 0.0 {
-                if let Some(nf) = face_normal(j, lc) {
-                    let h = (p - ta - w * lam).dot(&nf);
+            lam[j] = if ww > 0.0 { (d - va).dot(&w) / ww } else { f32::NAN };
+            if (0.0..=1.0).contains(&lam[j]) {
+                if let Some(nf) = face_normal(j, lam[j]) {
+                    let h = (d - va - w * lam[j]).dot(&nf);
                     if h.abs() < best.0 {
-                        best = (h.abs(), h.signum(), idx[j], lam, nf, p - nf * h);
-                        vertex = None;
+                        best = (h.abs(), h.signum(), idx[j], lam[j], nf, p - nf * h);
                     }
-                    continue;
                 }
             }
-            // Vertex region: distance to the tip's line along the tube at the clamped end.
-            let (tip, jt) = if lc < 0.5 { (ta, j) } else { (tb, j + 1) };
-            let tt = cprime + ds[jt];
-            let r = p - tip;
-            let along = tt.try_normalize(0.0).map_or(V3::zeros(), |d| d * r.dot(&d));
-            let perp = r - along;
-            let d = perp.norm();
-            if d < best.0 {
-                best = (d, 1.0, idx[j], lc, V3::zeros(), tip + along);
-                vertex = Some(perp);
+        }
+        // A tip can only be nearer than every strip when the point lies beyond both strips that
+        // meet there (in the section, a foot inside a strip is nearer than the strip's ends).
+        // Degenerate strips (NaN) count as "beyond".
+        // (When nothing qualified, as on a collapsed patch, both tips are tried.)
+        let none_yet = best.0 == f32::INFINITY;
+        // The outer tips (ends of the outer strips) count too: with uneven spoke angles the
+        // nearest tip can lie a sector further round; the strip beyond them is not read, so only
+        // the near side is checked.
+        for (jt, before, after) in [(1usize, lam[0], lam[1]), (2, lam[1], lam[2]), (0, f32::NAN, lam[0]), (3, lam[2], f32::NAN)] {
+            if none_yet || (!(before < 1.0) && !(after > 0.0)) {
+                let tip = c + vs[jt];
+                let tt = cprime + ds[jt];
+                let r = p - tip;
+                let along = tt.try_normalize(0.0).map_or(V3::zeros(), |dir| dir * r.dot(&dir));
+                let perp = r - along;
+                let dist = perp.norm();
+                if dist < best.0 {
+                    best = (dist, 1.0, idx[jt], 0.0, V3::zeros(), tip + along);
+                    vertex = Some(perp);
+                }
             }
         }
         if let Some(perp) = vertex {
@@ -371,8 +381,6 @@ impl TubeCache {
             let sign = if inner > 0.0 { -1.0 } else { 1.0 };
             best.1 = sign;
             best.4 = if best.0 > 1e-6 * scale { perp / best.0 * sign } else { radial() };
-        } else if best.0 == f32::INFINITY {
-            best.4 = radial();
         }
         let d_mid2 = (p - c).norm_squared();
         let (d, sign, k, l, normal, wall) = best;

@@ -66,8 +66,10 @@ impl Cubic {
             _ => (p2 * 2.0 - p1, d1),
         };
         let (t0, t1, t2) = (gap(d0, alpha), gap(d1, alpha), gap(d2, alpha));
-        let m1 = ((p1 - p0) / t0 - (p2 - p0) / (t0 + t1) + (p2 - p1) / t1) * t1;
-        let m2 = ((p2 - p1) / t1 - (p3 - p1) / (t1 + t2) + (p3 - p2) / t2) * t1;
+        // The formulas above with the common factor t1 folded into five scalar ratios: five
+        // divisions instead of eighteen per segment.
+        let m1 = (p1 - p0) * (t1 / t0) - (p2 - p0) * (t1 / (t0 + t1)) + (p2 - p1);
+        let m2 = (p2 - p1) - (p3 - p1) * (t1 / (t1 + t2)) + (p3 - p2) * (t1 / t2);
         Self { c: [p1, m1, (p2 - p1) * 3.0 - m1 * 2.0 - m2, (p1 - p2) * 2.0 + m1 + m2] }
     }
 
