@@ -10,8 +10,9 @@
 //!
 //! What is *not* copied are the plain bugs of the published code: knots are the real
 //! centripetal ones, samples are counted with integers, the end segments have leaves, and the
-//! nearest-sample search looks only at candidate segments. Buffers are reused; nothing
-//! allocates per frame once warm.
+//! nearest-sample search looks only at candidate segments. Nor is it made slower than it need
+//! be: each ring's box is computed once, candidates are grouped by a linear counting sort, and
+//! buffers are reused, so nothing allocates per frame once warm.
 
 use super::Emit;
 use crate::aabb::Aabb;
@@ -28,6 +29,10 @@ pub struct Thesis {
     tube_bvh: ChainBvh,
     rod_bvh: ChainBvh,
     pairs: Vec<(u32, u32)>,
+    found: Vec<(u32, u32)>,
+    start: Vec<u32>,
+    fill: Vec<u32>,
+    ring_boxes: Vec<Aabb>,
     /// Interpolated midline samples, `x + 1` per tube segment, valid where `stamp` matches.
     centres: Vec<V3>,
     stamp: Vec<u32>,
@@ -48,22 +53,43 @@ impl Thesis {
     pub fn interior(&mut self, t: &TubeView, cache: &mut TubeCache, rod: &RodSamples, emit: &Emit, out: &mut Vec<Contact>) -> u32 {
         let x = rod.x;
         let segs = t.segments();
-        // Published leaves: the tips of both rings, rebuilt from scratch every frame.
-        self.tube_bvh.build(segs, |i| {
+        // Published leaves: the tips of both rings, rebuilt from scratch every frame. Each
+        // ring's box is computed once and shared by its two segments.
+        self.ring_boxes.clear();
+        self.ring_boxes.extend((0..t.rings).map(|r| {
+            let c = t.point(r);
             let mut b = Aabb::EMPTY;
-            for r in [i, i + 1] {
-                let c = t.point(r);
-                for k in 0..t.spokes {
-                    b.add(c + t.spoke(r, k));
-                }
+            for k in 0..t.spokes {
+                b.add(c + t.spoke(r, k));
             }
             b
-        });
-        self.rod_bvh.build(rod.cubic.len(), |j| rod.leaf(j, 0.0));
+        }));
+        let ring_boxes = &self.ring_boxes;
+        self.tube_bvh.build(segs, |i| ring_boxes[i].merge(&ring_boxes[i + 1]));
+        let rod_segs = rod.cubic.len();
+        self.rod_bvh.build(rod_segs, |j| rod.leaf(j, 0.0));
+        // Candidate pairs grouped by rod segment with a counting sort (linear, no comparison
+        // sort): each rod sample then searches only its own segment's candidates.
+        self.found.clear();
+        let found = &mut self.found;
+        self.rod_bvh.pairs(&self.tube_bvh, |j, i| found.push((j as u32, i as u32)));
+        self.start.clear();
+        self.start.resize(rod_segs + 1, 0);
+        for &(j, _) in &self.found {
+            self.start[j as usize + 1] += 1;
+        }
+        for j in 0..rod_segs {
+            self.start[j + 1] += self.start[j];
+        }
         self.pairs.clear();
-        let pairs = &mut self.pairs;
-        self.rod_bvh.pairs(&self.tube_bvh, |j, i| pairs.push((j as u32, i as u32)));
-        self.pairs.sort_unstable();
+        self.pairs.resize(self.found.len(), (0, 0));
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.start[..rod_segs]);
+        for &(j, i) in &self.found {
+            let slot = &mut self.fill[j as usize];
+            self.pairs[*slot as usize] = (j, i);
+            *slot += 1;
+        }
         let candidates = self.pairs.len() as u32;
 
         self.frame = self.frame.wrapping_add(1).max(1);
