@@ -180,7 +180,11 @@ impl Detector {
                 }
                 (_, Shape::Rod { .. }) => {
                     if a == b {
-                        let BodyState::Rod { samples, bvh, .. } = &self.bodies[a] else { unreachable!() };
+                        let BodyState::Rod { samples, bvh, .. } = &mut self.bodies[a] else { unreachable!() };
+                        // `fill` empties the arc lengths each frame; measure them once if needed.
+                        if samples.arc.len() != samples.len() {
+                            samples.measure_arc();
+                        }
                         counters.candidates += rods::rod_rod(samples, bvh, samples, bvh, true, &mut ps.best, &emit, &mut self.contacts);
                     } else {
                         let (BodyState::Rod { samples: sa, bvh: ba, .. }, BodyState::Rod { samples: sb, bvh: bb, .. }) = (&self.bodies[a], &self.bodies[b]) else {

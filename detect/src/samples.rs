@@ -14,7 +14,8 @@ use crate::V3;
 pub struct RodSamples {
     pub pos: Vec<V3>,
     pub radius: Vec<f32>,
-    /// Arc length from the first sample along the sampled polyline.
+    /// Arc length from the first sample along the sampled polyline, once
+    /// [`RodSamples::measure_arc`] has run this frame.
     pub arc: Vec<f32>,
     /// Cubic of each segment.
     pub cubic: Vec<Cubic>,
@@ -49,13 +50,18 @@ impl RodSamples {
         }
         self.pos.push(rod.point(segs));
         self.radius.push(radius(segs));
+        debug_assert_eq!(self.pos.len(), n);
+    }
+
+    /// Fills [`RodSamples::arc`] (only self contact needs it: a square root per sample).
+    pub fn measure_arc(&mut self) {
+        self.arc.clear();
         let mut acc = 0.0;
         self.arc.push(0.0);
         for w in self.pos.windows(2) {
             acc += (w[1] - w[0]).norm();
             self.arc.push(acc);
         }
-        debug_assert_eq!(self.pos.len(), n);
     }
 
     /// Number of samples.
