@@ -1,1 +1,169 @@
+//! Client of the Lumen daemon (`lumen serve`): open a session for a scene, write each frame in
+//! place, submit it, read the contacts.
+//!
+//! ```no_run
+//! use lumen_client::Client;
+//! # fn spec() -> lumen_proto::SceneSpec { unimplemented!() }
+//! let client = Client::local()?;                 // or Client::zenoh("tcp/10.0.0.5:7447")?
+//! let mut session = client.open_session(&spec())?;
+//! loop {
+//!     let state = session.frame()?;              // the shared-memory frame itself (iceoryx2)
+//!     state.fill(0.0);                           // write every float, in the spec's layout
+//!     session.submit()?;
+//!     let reply = session.contacts(std::time::Duration::from_millis(100))?;
+//!     for c in reply.contacts() { let _ = c.depth; }
+//! }
+//! # Ok::<(), lumen_client::Error>(())
+//! ```
+//!
+//! - [`Client`]: a connection to the daemon, on this machine ([`Client::local`], iceoryx2 shared
+//!   memory) or over the network ([`Client::zenoh`]).
+//! - [`Session`]: one scene; frames in, contacts out. If the daemon dies and comes back, the
+//!   session reopens by itself on the next [`Session::frame`] / [`Session::submit`].
+//! - [`Observer`]: watches another session's frames and contacts without slowing it.
+//!
+//! iceoryx2 ports belong to the thread that made them: a local [`Client`], its sessions and
+//! observers are not `Send` (make one client per thread). Zenoh ones are.
 
+mod clock;
+mod control;
+mod error;
+pub mod local;
+mod observer;
+pub mod remote;
+mod session;
+mod view;
+
+pub use clock::now_ns;
+pub use error::Error;
+pub use lumen_proto as proto;
+pub use lumen_proto::session::{SessionInfo, StatusReport, Transport};
+pub use observer::{Observed, Observer};
+pub use session::Session;
+pub use view::ContactsView;
+
+use lumen_proto::session::{ControlReply, ControlRequest};
+use lumen_proto::wire::PROTOCOL_VERSION;
+use lumen_proto::SceneSpec;
+use std::time::Duration;
+
+/// How long control requests (open, describe, status) wait for the daemon.
+pub const CONTROL_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// A connection to the daemon.
+pub struct Client {
+    inner: Inner,
+    name: String,
+}
+
+enum Inner {
+    Local(local::LocalClient),
+    Zenoh(remote::ZenohClient),
+}
+
+/// Options of a local (iceoryx2) client.
+#[derive(Debug, Clone, Default)]
+pub struct LocalOptions {
+    /// iceoryx2 `global.prefix` (file name prefix in `/dev/shm`); must match the daemon's.
+    /// `None`: the `LUMEN_IOX2_PREFIX` environment variable, else iceoryx2's default.
+    pub prefix: Option<String>,
+    /// Name shown by `lumen status` (default: the executable's name).
+    pub name: Option<String>,
+}
+
+impl Client {
+    /// A client of the daemon on this machine, over iceoryx2 shared memory.
+    pub fn local() -> Result<Self, Error> {
+        Self::local_with(LocalOptions::default())
+    }
+
+    /// A local client with explicit options.
+    pub fn local_with(options: LocalOptions) -> Result<Self, Error> {
+        let prefix = options.prefix.or_else(|| std::env::var("LUMEN_IOX2_PREFIX").ok());
+        let inner = Inner::Local(local::LocalClient::new(prefix.as_deref())?);
+        Ok(Self { inner, name: options.name.unwrap_or_else(default_name) })
+    }
+
+    /// A client of the daemon at a zenoh endpoint such as `tcp/127.0.0.1:7447` (TLS:
+    /// `tls/host:port`, configured through `ZENOH_CONFIG`-style JSON5 in
+    /// [`remote::ZenohClient::with_config`]).
+    pub fn zenoh(endpoint: &str) -> Result<Self, Error> {
+        Ok(Self { inner: Inner::Zenoh(remote::ZenohClient::connect(endpoint)?), name: default_name() })
+    }
+
+    /// Sets the name `lumen status` shows for sessions this client opens.
+    pub fn with_name(mut self, name: &str) -> Self {
+        self.name = name.to_owned();
+        self
+    }
+
+    /// The transport this client uses.
+    pub fn transport(&self) -> Transport {
+        match self.inner {
+            Inner::Local(_) => Transport::Iceoryx2,
+            Inner::Zenoh(_) => Transport::Zenoh,
+        }
+    }
+
+    /// Opens a session for `spec`: the daemon validates it (an invalid one is refused with a
+    /// message naming the problem) and sizes the session's channels from it.
+    pub fn open_session(&self, spec: &SceneSpec) -> Result<Session, Error> {
+        self.open(spec, false)
+    }
+
+    /// Opens a session whose daemon side only echoes an empty reply for each frame, without
+    /// detecting: the transport's own cost, for benchmarks.
+    pub fn open_echo_session(&self, spec: &SceneSpec) -> Result<Session, Error> {
+        self.open(spec, true)
+    }
+
+    fn open(&self, spec: &SceneSpec, echo: bool) -> Result<Session, Error> {
+        let request = ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec.clone(), client: self.name.clone(), echo };
+        match &self.inner {
+            Inner::Local(c) => c.open(request).map(Session::from_local),
+            Inner::Zenoh(c) => c.open(request).map(Session::from_zenoh),
+        }
+    }
+
+    /// Watches session `session` (of any client of the same transport).
+    pub fn observe(&self, session: u64) -> Result<Observer, Error> {
+        let info = self.describe(session)?;
+        match &self.inner {
+            Inner::Local(c) => c.observe(info).map(Observer::from_local),
+            Inner::Zenoh(c) => c.observe(info).map(Observer::from_zenoh),
+        }
+    }
+
+    /// What the daemon knows of session `session`.
+    pub fn describe(&self, session: u64) -> Result<SessionInfo, Error> {
+        match self.request(&ControlRequest::Describe { session })? {
+            ControlReply::Described(info) => Ok(info),
+            other => Err(control::unexpected(other)),
+        }
+    }
+
+    /// The daemon's sessions with their frame rates, latencies and contact counts.
+    pub fn status(&self) -> Result<StatusReport, Error> {
+        match self.request(&ControlRequest::Status)? {
+            ControlReply::Status(s) => Ok(s),
+            other => Err(control::unexpected(other)),
+        }
+    }
+
+    /// Sends one control request and returns the reply (errors from the daemon become
+    /// [`Error::Refused`]).
+    pub fn request(&self, request: &ControlRequest) -> Result<ControlReply, Error> {
+        let reply = match &self.inner {
+            Inner::Local(c) => c.control().request(request, CONTROL_TIMEOUT)?,
+            Inner::Zenoh(c) => c.request(request, CONTROL_TIMEOUT)?,
+        };
+        match reply {
+            ControlReply::Error(e) => Err(Error::Refused(e)),
+            r => Ok(r),
+        }
+    }
+}
+
+fn default_name() -> String {
+    std::env::current_exe().ok().and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned())).unwrap_or_else(|| "client".into())
+}

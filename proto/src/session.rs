@@ -64,6 +64,10 @@ pub enum ControlRequest {
         /// A free-form name shown by `lumen status`.
         #[serde(default)]
         client: String,
+        /// Benchmarks only: answer every frame with an empty `Ok` reply without detecting,
+        /// to measure the transport alone.
+        #[serde(default)]
+        echo: bool,
     },
     /// Describe an open session (for observers): replies [`ControlReply::Described`].
     Describe { session: u64 },
@@ -198,7 +202,7 @@ mod tests {
         let json = r#"{"op":"open","version":1,"client":"sim",
             "spec":{"bodies":[{"name":"scope","shape":{"rod":{"points":3,"radius":[1.0]}}}],"pairs":[]}}"#;
         let r: ControlRequest = serde_json::from_str(json).unwrap();
-        let ControlRequest::Open { version, spec, client } = r else { panic!("not open: {r:?}") };
+        let ControlRequest::Open { version, spec, client, echo: false } = r else { panic!("not open: {r:?}") };
         assert_eq!((version, spec.bodies.len(), client.as_str()), (1, 1, "sim"));
         assert_eq!(serde_json::to_string(&ControlRequest::Status).unwrap(), r#"{"op":"status"}"#);
         let e = ControlReply::Error(ControlError { code: ErrorCode::Limit, message: "too big".into() });

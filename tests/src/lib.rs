@@ -1,1 +1,220 @@
+//! Helpers for Lumen's multi-process end-to-end tests (the tests themselves live in
+//! `service/tests/`, where Cargo hands them the `lumen` binary; see `tests/README.md`).
+//!
+//! - [`Daemon`]: a `lumen serve` child, killed when dropped.
+//! - [`ChildProcess`]: any child (e.g. the test binary re-run as a client), killed when dropped.
+//! - [`unique_prefix`], [`free_port`]: isolation between tests running at once.
+//! - [`shm_files`]: what a prefix left in `/dev/shm`.
+//! - [`TestScene`]: a small tube-and-rod scene whose rod presses into the wall, frame by frame.
 
+use lumen_detect::{ContactKind, Rod, Scene, Tube};
+use lumen_proto::{Contact, SceneSpec};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver};
+use std::time::{Duration, Instant};
+
+/// An iceoryx2 prefix no other test (or run) uses: `lt<pid>_<tag>_`.
+pub fn unique_prefix(tag: &str) -> String {
+    static N: AtomicUsize = AtomicUsize::new(0);
+    format!("lt{}x{}{}_", std::process::id(), N.fetch_add(1, Ordering::Relaxed), tag)
+}
+
+/// A TCP port free on loopback right now.
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
+}
+
+/// Files in `/dev/shm` whose names start with `prefix`.
+pub fn shm_files(prefix: &str) -> Vec<String> {
+    std::fs::read_dir("/dev/shm")
+        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(prefix)).collect())
+        .unwrap_or_default()
+}
+
+/// Waits until `f` holds, up to `limit`; returns whether it did.
+pub fn eventually(limit: Duration, mut f: impl FnMut() -> bool) -> bool {
+    let end = Instant::now() + limit;
+    loop {
+        if f() {
+            return true;
+        }
+        if Instant::now() > end {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A child process with its stdout lines on a channel; killed (SIGKILL) and reaped on drop.
+pub struct ChildProcess {
+    pub child: Child,
+    lines: Receiver<String>,
+}
+
+impl ChildProcess {
+    /// Spawns `cmd` with stdout piped (stderr inherited).
+    pub fn spawn(mut cmd: Command) -> Self {
+        let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::inherit()).stdin(Stdio::piped()).spawn().expect("spawning a child");
+        let stdout = child.stdout.take().expect("piped");
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Self { child, lines }
+    }
+
+    /// The next stdout line starting with `prefix` within `limit`.
+    pub fn line_starting(&self, prefix: &str, limit: Duration) -> Option<String> {
+        let end = Instant::now() + limit;
+        loop {
+            let left = end.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) if l.starts_with(prefix) => return Some(l),
+                Ok(_) => continue,
+                Err(_) => return None,
+            }
+        }
+    }
+
+    /// Sends a signal.
+    pub fn signal(&self, sig: i32) {
+        // SAFETY: signalling our own child.
+        unsafe { libc::kill(self.child.id() as i32, sig) };
+    }
+
+    /// `kill -9` and reap.
+    pub fn kill9(&mut self) {
+        self.signal(libc::SIGKILL);
+        let _ = self.child.wait();
+    }
+
+    /// Waits for the exit up to `limit`.
+    pub fn wait_exit(&mut self, limit: Duration) -> Option<ExitStatus> {
+        let end = Instant::now() + limit;
+        while Instant::now() < end {
+            if let Ok(Some(s)) = self.child.try_wait() {
+                return Some(s);
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        None
+    }
+
+    /// Closes its stdin (children of these tests exit cleanly when it closes).
+    pub fn close_stdin(&mut self) {
+        drop(self.child.stdin.take());
+    }
+}
+
+impl Drop for ChildProcess {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
+    }
+}
+
+/// A `lumen serve` child.
+pub struct Daemon {
+    pub process: ChildProcess,
+    pub prefix: String,
+    pub port: Option<u16>,
+}
+
+impl Daemon {
+    /// Starts `bin serve --prefix PREFIX [--zenoh-listen tcp/127.0.0.1:PORT] EXTRA...` and waits
+    /// for its ready line.
+    pub fn start(bin: &Path, prefix: &str, port: Option<u16>, extra: &[&str]) -> Self {
+        let mut cmd = Command::new(bin);
+        cmd.args(["serve", "--prefix", prefix, "--log", "info"]);
+        if let Some(p) = port {
+            cmd.args(["--zenoh-listen", &format!("tcp/127.0.0.1:{p}")]);
+        }
+        cmd.args(extra);
+        let process = ChildProcess::spawn(cmd);
+        assert!(process.line_starting("lumen serve: ready", Duration::from_secs(30)).is_some(), "the daemon did not get ready");
+        Self { process, prefix: prefix.to_owned(), port }
+    }
+
+    /// The zenoh endpoint.
+    pub fn endpoint(&self) -> String {
+        format!("tcp/127.0.0.1:{}", self.port.expect("started with a port"))
+    }
+
+    /// SIGTERM; returns the exit status (within 10 s).
+    pub fn terminate(mut self) -> Option<ExitStatus> {
+        self.process.signal(libc::SIGTERM);
+        self.process.wait_exit(Duration::from_secs(10))
+    }
+}
+
+/// A straight tube (rings along x, radius 10) and a rod inside it that sways into the wall.
+pub struct TestScene {
+    pub spec: SceneSpec,
+    rings: usize,
+    spokes: usize,
+    points: usize,
+}
+
+impl TestScene {
+    /// A tube of `rings` x `spokes`, a rod of `points`, interior contacts.
+    pub fn new(rings: usize, spokes: usize, points: usize) -> Self {
+        let me = Self { spec: SceneSpec::new(vec![], vec![]), rings, spokes, points };
+        let s = me.scene(0);
+        Self { spec: s.spec(), ..me }
+    }
+
+    fn scene(&self, k: u64) -> Scene {
+        let (rings, spokes, points) = (self.rings, self.spokes, self.points);
+        let tube = Tube::new(
+            (0..rings).map(|i| [i as f32 * 4.0, 0.0, 0.0]).collect(),
+            (0..rings)
+                .flat_map(|_| {
+                    (0..spokes).map(move |j| {
+                        let a = j as f32 * std::f32::consts::TAU / spokes as f32;
+                        [0.0, 10.0 * a.cos(), 10.0 * a.sin()]
+                    })
+                })
+                .collect(),
+            spokes,
+        )
+        .expect("valid tube");
+        let len = (rings - 1) as f32 * 4.0;
+        let rod = Rod::new(
+            (0..points)
+                .map(|j| {
+                    let x = 2.0 + j as f32 * (len - 4.0) / (points - 1) as f32;
+                    [x, 9.0 * (j as f32 * 0.7 + k as f32 * 0.05).sin(), 3.0 * (k as f32 * 0.03).cos()]
+                })
+                .collect(),
+            vec![1.5],
+        )
+        .expect("valid rod");
+        Scene::new().tube("colon", tube).rod("scope", rod).pair("scope", "colon", ContactKind::Interior)
+    }
+
+    /// Frame `k`'s state.
+    pub fn state(&self, k: u64) -> Vec<f32> {
+        self.scene(k).state()
+    }
+}
+
+/// Two contact lists are equal bit for bit (floats compared by their bits).
+pub fn same_bits(a: &[Contact], b: &[Contact]) -> bool {
+    let enc = |c: &[Contact]| {
+        let mut v = Vec::new();
+        for x in c {
+            lumen_proto::wire::encode_contact(x, &mut v);
+        }
+        v
+    };
+    enc(a) == enc(b)
+}

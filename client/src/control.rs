@@ -1,0 +1,17 @@
+//! JSON control replies, shared by both transports.
+
+use crate::Error;
+use lumen_proto::session::ControlReply;
+
+/// Parses a control reply (errors are returned as replies; the caller decides).
+pub(crate) fn parse_reply(bytes: &[u8]) -> Result<ControlReply, Error> {
+    serde_json::from_slice(bytes).map_err(|e| Error::Protocol(format!("unreadable control reply ({e}): {:?}", String::from_utf8_lossy(&bytes[..bytes.len().min(200)]))))
+}
+
+/// The error for a reply of the wrong kind.
+pub(crate) fn unexpected(reply: ControlReply) -> Error {
+    match reply {
+        ControlReply::Error(e) => Error::Refused(e),
+        other => Error::Protocol(format!("unexpected control reply: {other:?}")),
+    }
+}

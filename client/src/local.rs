@@ -1,0 +1,372 @@
+//! The iceoryx2 transport: shared memory on this machine, woken by events, never polled.
+//!
+//! The daemon creates every session's services (sized from the spec); clients and observers
+//! open them. The QoS and channel helpers here are shared with the daemon so both sides agree.
+
+use crate::control::parse_reply;
+use crate::view::ContactsView;
+use crate::{now_ns, Error};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::sample::Sample;
+use iceoryx2::sample_mut::SampleMut;
+use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
+use lumen_proto::session::{ControlReply, ControlRequest, SessionInfo, Transport, CONTROL};
+use lumen_proto::wire::{ContactsHeader, FrameHeader};
+use lumen_proto::{Contact, StateLayout};
+use std::rc::Rc;
+use std::time::{Duration, Instant};
+
+/// The iceoryx2 service flavour used throughout (inter-process, ports bound to their thread).
+pub type Svc = ipc::Service;
+/// A session's frame service: user header [`FrameHeader`], payload `[f32]`.
+pub type FrameService = publish_subscribe::PortFactory<Svc, [f32], FrameHeader>;
+/// A session's contacts service: user header [`ContactsHeader`], payload `[Contact]`.
+pub type ContactsService = publish_subscribe::PortFactory<Svc, [Contact], ContactsHeader>;
+/// An event service (paired with each publish-subscribe service, same name).
+pub type EventService = event::PortFactory<Svc>;
+/// The control service: JSON bytes both ways.
+pub type ControlService = request_response::PortFactory<Svc, [u8], (), [u8], ()>;
+
+/// Event sent after each frame / reply / control request.
+pub const EVENT_SENT: EventId = EventId::new(0);
+/// Event iceoryx2 raises when the notifier of a dead process is cleaned up.
+pub const EVENT_PEER_DIED: EventId = EventId::new(1);
+/// How often a blocked wait looks whether the other side died.
+pub const LIVENESS_PERIOD: Duration = Duration::from_millis(200);
+
+/// An iceoryx2 configuration with `prefix` (default settings otherwise; no config file is read).
+pub fn config(prefix: Option<&str>) -> Result<Config, Error> {
+    let mut c = Config::default();
+    if let Some(p) = prefix {
+        c.global.prefix = FileName::new(p.as_bytes()).map_err(|e| Error::iox(&format!("prefix {p:?} is not a valid file name prefix"), e))?;
+    }
+    Ok(c)
+}
+
+/// A node that leaves signals alone (the daemon handles them itself; a library must not).
+pub fn node(config: &Config, name: &str) -> Result<Node<Svc>, Error> {
+    let name = NodeName::new(name).map_err(|e| Error::iox("node name", e))?;
+    NodeBuilder::new()
+        .config(config)
+        .name(&name)
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<Svc>()
+        .map_err(|e| Error::iox("creating the iceoryx2 node", e))
+}
+
+/// A service name, checked.
+pub fn service_name(name: &str) -> Result<ServiceName, Error> {
+    ServiceName::new(name).map_err(|e| Error::iox(&format!("service name {name:?}"), e))
+}
+
+/// Opens a session's frame service and its event service.
+pub fn open_frame(node: &Node<Svc>, name: &str) -> Result<(FrameService, EventService), Error> {
+    let n = service_name(name)?;
+    let ps = node.service_builder(&n).publish_subscribe::<[f32]>().user_header::<FrameHeader>().open().map_err(|e| Error::iox("opening the frame service", e))?;
+    let ev = node.service_builder(&n).event().open().map_err(|e| Error::iox("opening the frame event", e))?;
+    Ok((ps, ev))
+}
+
+/// Opens a session's contacts service and its event service.
+pub fn open_contacts(node: &Node<Svc>, name: &str) -> Result<(ContactsService, EventService), Error> {
+    let n = service_name(name)?;
+    let ps = node.service_builder(&n).publish_subscribe::<[Contact]>().user_header::<ContactsHeader>().open().map_err(|e| Error::iox("opening the contacts service", e))?;
+    let ev = node.service_builder(&n).event().open().map_err(|e| Error::iox("opening the contacts event", e))?;
+    Ok((ps, ev))
+}
+
+/// Waits until `listener` fires or `timeout` passes; returns whether a peer died.
+fn wait(listener: &Listener<Svc>, timeout: Duration) -> Result<bool, Error> {
+    let mut died = false;
+    listener.timed_wait(|e| died |= e.id == EVENT_PEER_DIED, timeout).map_err(|e| Error::iox("waiting for an event", e))?;
+    Ok(died)
+}
+
+/// The control channel seen from a client: one request, one reply.
+#[derive(Clone)]
+pub struct Control {
+    node: Rc<Node<Svc>>,
+}
+
+impl Control {
+    /// Sends `request` and waits up to `timeout` for the reply.
+    pub fn request(&self, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+        let no_daemon = |detail: String| Error::NoDaemon { transport: Transport::Iceoryx2, detail };
+        // Stale services of a daemon that died would swallow the request: clean them first.
+        self.node.try_cleanup_dead_nodes();
+        let name = service_name(CONTROL)?;
+        let service = self.node.service_builder(&name).request_response::<[u8], [u8]>().open().map_err(|e| no_daemon(format!("service {CONTROL}: {e:?}")))?;
+        let wake = self.node.service_builder(&name).event().open().map_err(|e| no_daemon(format!("event {CONTROL}: {e:?}")))?;
+        let json = serde_json::to_vec(request).expect("control requests serialise");
+        let client = service
+            .client_builder()
+            .initial_max_slice_len(json.len())
+            .allocation_strategy(AllocationStrategy::Static)
+            .create()
+            .map_err(|e| Error::iox("creating a control client port", e))?;
+        let loan = client.loan_slice_uninit(json.len()).map_err(|e| Error::iox("loaning a control request", e))?;
+        let pending = loan.write_from_slice(&json).send().map_err(|e| Error::iox("sending a control request", e))?;
+        let notifier = wake.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|e| Error::iox("creating a control notifier", e))?;
+        notifier.notify().map_err(|e| Error::iox("waking the daemon", e))?;
+        let start = Instant::now();
+        loop {
+            // Control traffic is rare and small: a short sleep between looks is enough.
+            if let Some(response) = pending.receive().map_err(|e| Error::iox("receiving a control reply", e))? {
+                return parse_reply(response.payload());
+            }
+            if start.elapsed() > timeout {
+                return Err(no_daemon(format!("no reply on {CONTROL} within {timeout:?}")));
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    }
+}
+
+/// A local client: one iceoryx2 node.
+pub struct LocalClient {
+    control: Control,
+}
+
+impl LocalClient {
+    /// A client with iceoryx2 `prefix` (must match the daemon's).
+    pub fn new(prefix: Option<&str>) -> Result<Self, Error> {
+        let cfg = config(prefix)?;
+        let node = node(&cfg, &format!("lumen-client-{}", std::process::id()))?;
+        Ok(Self { control: Control { node: Rc::new(node) } })
+    }
+
+    /// The control channel.
+    pub fn control(&self) -> &Control {
+        &self.control
+    }
+
+    pub(crate) fn open(&self, request: ControlRequest) -> Result<LocalSession, Error> {
+        let info = match self.control.request(&request, crate::CONTROL_TIMEOUT)? {
+            ControlReply::Opened(info) => info,
+            ControlReply::Error(e) => return Err(Error::Refused(e)),
+            other => return Err(crate::control::unexpected(other)),
+        };
+        let ports = SessionPorts::attach(&self.control.node, &info)?;
+        Ok(LocalSession::new(self.control.clone(), request, info, ports))
+    }
+
+    pub(crate) fn observe(&self, info: SessionInfo) -> Result<LocalObserver, Error> {
+        LocalObserver::new(&self.control.node, info)
+    }
+}
+
+struct SessionPorts {
+    contacts: ContactsService,
+    publisher: Publisher<Svc, [f32], FrameHeader>,
+    notifier: Notifier<Svc>,
+    subscriber: Subscriber<Svc, [Contact], ContactsHeader>,
+    listener: Listener<Svc>,
+}
+
+impl SessionPorts {
+    fn attach(node: &Node<Svc>, info: &SessionInfo) -> Result<Self, Error> {
+        let (frame, frame_event) = open_frame(node, &info.frame)?;
+        let (contacts, contacts_event) = open_contacts(node, &info.contacts)?;
+        let publisher = frame
+            .publisher_builder()
+            .initial_max_slice_len(info.floats as usize)
+            .allocation_strategy(AllocationStrategy::Static)
+            .max_loaned_samples(1)
+            .create()
+            .map_err(|e| Error::iox("creating the frame publisher", e))?;
+        let notifier = frame_event.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|e| Error::iox("creating the frame notifier", e))?;
+        let subscriber = contacts.subscriber_builder().create().map_err(|e| Error::iox("creating the contacts subscriber", e))?;
+        let listener = contacts_event.listener_builder().create().map_err(|e| Error::iox("creating the contacts listener", e))?;
+        Ok(Self { contacts, publisher, notifier, subscriber, listener })
+    }
+}
+
+/// A session over iceoryx2 (see [`crate::Session`]).
+pub(crate) struct LocalSession {
+    // Samples first: they are dropped before the ports they came from.
+    loan: Option<SampleMut<Svc, [f32], FrameHeader>>,
+    last: Option<Sample<Svc, [Contact], ContactsHeader>>,
+    ports: Option<SessionPorts>,
+    control: Control,
+    request: ControlRequest,
+    pub(crate) info: SessionInfo,
+    pub(crate) layout: StateLayout,
+    pub(crate) frame_no: u64,
+    pub(crate) reconnects: u64,
+}
+
+impl LocalSession {
+    fn new(control: Control, request: ControlRequest, info: SessionInfo, ports: SessionPorts) -> Self {
+        let layout = info.layout();
+        Self { loan: None, last: None, ports: Some(ports), control, request, info, layout, frame_no: 0, reconnects: 0 }
+    }
+
+    /// Reopens the session after the daemon went away, if one answers now.
+    fn ensure_open(&mut self) -> Result<&SessionPorts, Error> {
+        if self.ports.is_none() {
+            let reply = self.control.request(&self.request, Duration::from_millis(300)).map_err(|_| Error::Disconnected)?;
+            let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
+            let ports = SessionPorts::attach(&self.control.node, &info)?;
+            self.layout = info.layout();
+            self.info = info;
+            self.ports = Some(ports);
+            self.reconnects += 1;
+        }
+        Ok(self.ports.as_ref().expect("just opened"))
+    }
+
+    fn lose(&mut self) -> Error {
+        self.loan = None;
+        self.last = None;
+        self.ports = None;
+        Error::Disconnected
+    }
+
+    /// Whether the daemon's side of the session is gone (daemon dead or session freed).
+    fn daemon_gone(&self) -> bool {
+        self.control.node.try_cleanup_dead_nodes();
+        self.ports.as_ref().is_none_or(|p| p.contacts.dynamic_config().number_of_publishers() == 0)
+    }
+
+    pub(crate) fn frame(&mut self) -> Result<&mut [f32], Error> {
+        self.ensure_open()?;
+        if self.loan.is_none() {
+            let ports = self.ports.as_ref().expect("open");
+            let uninit = ports.publisher.loan_slice_uninit(self.info.floats as usize).map_err(|e| Error::iox("loaning a frame", e))?;
+            // SAFETY: every bit pattern is a valid f32, and the publisher's shared-memory
+            // segment is zero-filled when it is created and only ever holds f32 frames, so each
+            // byte is initialised (with an earlier frame's data until the caller overwrites it).
+            self.loan = Some(unsafe { uninit.assume_init() });
+        }
+        Ok(self.loan.as_mut().expect("loaned").payload_mut())
+    }
+
+    pub(crate) fn submit(&mut self, edit: impl FnOnce(&mut FrameHeader)) -> Result<u64, Error> {
+        self.ensure_open()?;
+        let mut sample = self.loan.take().ok_or(Error::NoFrame)?;
+        let n = self.frame_no;
+        let mut header = FrameHeader::new(self.info.session, n, now_ns(), self.layout.floats, self.layout.bodies.len());
+        edit(&mut header);
+        *sample.user_header_mut() = header;
+        sample.send().map_err(|e| Error::iox("sending the frame", e))?;
+        self.ports.as_ref().expect("open").notifier.notify().map_err(|e| Error::iox("notifying the daemon", e))?;
+        self.frame_no += 1;
+        Ok(n)
+    }
+
+    pub(crate) fn last_view(&self) -> Option<ContactsView<'_>> {
+        self.last.as_ref().map(|s| ContactsView { header: s.user_header(), contacts: s.payload() })
+    }
+
+    pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
+        let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
+        self.last = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))?;
+        Ok(self.last.as_ref().map(|s| ContactsView { header: s.user_header(), contacts: s.payload() }))
+    }
+
+    pub(crate) fn contacts(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        let start = Instant::now();
+        let deadline = start + timeout;
+        let mut last_check = start;
+        self.last = None;
+        loop {
+            let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
+            if let Some(s) = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                let s = self.last.insert(s);
+                return Ok(ContactsView { header: s.user_header(), contacts: s.payload() });
+            }
+            let now = Instant::now();
+            let left = deadline.saturating_duration_since(now);
+            let died = !left.is_zero() && wait(&ports.listener, left.min(LIVENESS_PERIOD))?;
+            if ports.subscriber.has_samples().unwrap_or(false) {
+                continue;
+            }
+            // Nothing arrived: look whether the daemon is still there, at most every period.
+            if died || left.is_zero() || last_check.elapsed() >= LIVENESS_PERIOD {
+                last_check = Instant::now();
+                if self.daemon_gone() {
+                    return Err(self.lose());
+                }
+            }
+            if left.is_zero() {
+                return Err(Error::Timeout(timeout));
+            }
+        }
+    }
+}
+
+/// An observer over iceoryx2.
+pub(crate) struct LocalObserver {
+    frame_sample: Option<Sample<Svc, [f32], FrameHeader>>,
+    contacts_sample: Option<Sample<Svc, [Contact], ContactsHeader>>,
+    contacts: ContactsService,
+    frames: Subscriber<Svc, [f32], FrameHeader>,
+    replies: Subscriber<Svc, [Contact], ContactsHeader>,
+    frame_listener: Listener<Svc>,
+    contacts_listener: Listener<Svc>,
+    node: Rc<Node<Svc>>,
+    pub(crate) info: SessionInfo,
+    prefer_frame: bool,
+}
+
+impl LocalObserver {
+    fn new(node: &Rc<Node<Svc>>, info: SessionInfo) -> Result<Self, Error> {
+        let (frame, frame_event) = open_frame(node, &info.frame)?;
+        let (contacts, contacts_event) = open_contacts(node, &info.contacts)?;
+        let full = |what: &str, e: &dyn std::fmt::Debug| Error::iox(&format!("{what} (at most {} observers per session)", info.max_observers), e);
+        let frames = frame.subscriber_builder().create().map_err(|e| full("subscribing to frames", &e))?;
+        let replies = contacts.subscriber_builder().create().map_err(|e| full("subscribing to contacts", &e))?;
+        let frame_listener = frame_event.listener_builder().create().map_err(|e| full("listening for frames", &e))?;
+        let contacts_listener = contacts_event.listener_builder().create().map_err(|e| full("listening for contacts", &e))?;
+        Ok(Self { frame_sample: None, contacts_sample: None, contacts, frames, replies, frame_listener, contacts_listener, node: node.clone(), info, prefer_frame: true })
+    }
+
+    /// The next frame or reply: the newest frame, and replies in order.
+    pub(crate) fn next(&mut self, timeout: Duration) -> Result<crate::Observed<'_>, Error> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            // Consume the wake-ups first: a sample sent after the look below brings a new one.
+            self.frame_listener.try_wait(|_| {}).map_err(|e| Error::iox("consuming frame events", e))?;
+            self.contacts_listener.try_wait(|_| {}).map_err(|e| Error::iox("consuming contacts events", e))?;
+            // Drain the frame queue to its newest sample.
+            let mut newest = None;
+            while let Some(s) = self.frames.receive().map_err(|e| Error::iox("receiving a frame", e))? {
+                newest = Some(s);
+            }
+            let reply = if newest.is_none() || !self.prefer_frame { self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? } else { None };
+            if let Some(r) = reply {
+                self.prefer_frame = true;
+                let r = self.contacts_sample.insert(r);
+                return Ok(crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() }));
+            }
+            if let Some(f) = newest {
+                self.prefer_frame = false;
+                let f = self.frame_sample.insert(f);
+                return Ok(crate::Observed::Frame { header: f.user_header(), state: f.payload() });
+            }
+            self.prefer_frame = true;
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(Error::Timeout(timeout));
+            }
+            if poll2(&self.frame_listener, &self.contacts_listener, left.min(LIVENESS_PERIOD)) == 0 {
+                self.node.try_cleanup_dead_nodes();
+                if self.contacts.dynamic_config().number_of_publishers() == 0 {
+                    return Err(Error::SessionEnded(self.info.session));
+                }
+            }
+        }
+    }
+}
+
+/// Blocks until either listener's file descriptor is readable or `timeout` passes; returns the
+/// number of ready descriptors.
+fn poll2(a: &Listener<Svc>, b: &Listener<Svc>, timeout: Duration) -> i32 {
+    // SAFETY: the descriptors belong to listeners that outlive the call; poll only reads them.
+    let mut fds = [a, b].map(|l| libc::pollfd { fd: unsafe { l.file_descriptor().native_handle() }, events: libc::POLLIN, revents: 0 });
+    unsafe { libc::poll(fds.as_mut_ptr(), 2, timeout.as_millis().clamp(1, i32::MAX as u128) as i32) }
+}

@@ -1,0 +1,53 @@
+use crate::local::LocalObserver;
+use crate::remote::ZenohObserver;
+use crate::view::ContactsView;
+use crate::Error;
+use lumen_proto::session::SessionInfo;
+use lumen_proto::wire::FrameHeader;
+use std::time::Duration;
+
+/// Something an [`Observer`] saw.
+#[derive(Debug)]
+pub enum Observed<'a> {
+    /// The newest frame the client sent (older ones not yet seen are skipped).
+    Frame { header: &'a FrameHeader, state: &'a [f32] },
+    /// A reply of the daemon.
+    Contacts(ContactsView<'a>),
+}
+
+/// Watches a session's frames and replies (a VR front-end, a recorder). It never slows the
+/// session: it sees the newest frame, and replies while it keeps up.
+pub struct Observer {
+    inner: Inner,
+}
+
+enum Inner {
+    Local(LocalObserver),
+    Zenoh(ZenohObserver),
+}
+
+impl Observer {
+    pub(crate) fn from_local(o: LocalObserver) -> Self {
+        Self { inner: Inner::Local(o) }
+    }
+    pub(crate) fn from_zenoh(o: ZenohObserver) -> Self {
+        Self { inner: Inner::Zenoh(o) }
+    }
+
+    /// The observed session.
+    pub fn info(&self) -> &SessionInfo {
+        match &self.inner {
+            Inner::Local(o) => &o.info,
+            Inner::Zenoh(o) => &o.info,
+        }
+    }
+
+    /// The next frame or reply, waiting up to `timeout`. [`Error::SessionEnded`] once the
+    /// session is gone.
+    pub fn next(&mut self, timeout: Duration) -> Result<Observed<'_>, Error> {
+        match &mut self.inner {
+            Inner::Local(o) => o.next(timeout),
+            Inner::Zenoh(o) => o.next(timeout),
+        }
+    }
+}

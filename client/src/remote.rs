@@ -1,0 +1,261 @@
+//! The zenoh transport: the same frames and replies as bytes over TCP (or TLS), for clients on
+//! other machines.
+
+use crate::control::{parse_reply, unexpected};
+use crate::view::ContactsView;
+use crate::{now_ns, Error, Observed};
+use lumen_proto::session::{client_alive_name, ControlReply, ControlRequest, SessionInfo, Transport, CONTROL, DAEMON_ALIVE};
+use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
+use lumen_proto::{Contact, StateLayout};
+use std::time::{Duration, Instant};
+use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::qos::CongestionControl;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Wait;
+
+/// A zenoh configuration: `mode` (`client`, `peer` or `router`), no multicast scouting, the
+/// given endpoints to listen on and to connect to.
+pub fn config(mode: &str, listen: &[String], connect: &[String]) -> Result<zenoh::Config, Error> {
+    let mut c = zenoh::Config::default();
+    let set = |c: &mut zenoh::Config, k: &str, v: String| c.insert_json5(k, &v).map_err(|e| Error::zenoh(&format!("config {k} = {v}"), e));
+    set(&mut c, "mode", format!("{mode:?}"))?;
+    set(&mut c, "scouting/multicast/enabled", "false".into())?;
+    set(&mut c, "scouting/gossip/enabled", "false".into())?;
+    set(&mut c, "listen/endpoints", serde_json::to_string(listen).expect("strings"))?;
+    set(&mut c, "connect/endpoints", serde_json::to_string(connect).expect("strings"))?;
+    Ok(c)
+}
+
+/// A client of a daemon reachable over zenoh.
+pub struct ZenohClient {
+    session: zenoh::Session,
+    endpoint: String,
+}
+
+impl ZenohClient {
+    /// Connects in client mode to `endpoint` (e.g. `tcp/127.0.0.1:7447`).
+    pub fn connect(endpoint: &str) -> Result<Self, Error> {
+        Self::with_config(config("client", &[], &[endpoint.to_owned()])?, endpoint)
+    }
+
+    /// Connects with a full zenoh configuration (TLS, authentication...); `label` names the
+    /// daemon in error messages.
+    pub fn with_config(config: zenoh::Config, label: &str) -> Result<Self, Error> {
+        let session = zenoh::open(config).wait().map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {e}") })?;
+        Ok(Self { session, endpoint: label.to_owned() })
+    }
+
+    /// Sends one control request and waits up to `timeout` for the reply.
+    pub fn request(&self, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+        request_on(&self.session, &self.endpoint, request, timeout)
+    }
+
+    pub(crate) fn open(&self, request: ControlRequest) -> Result<ZenohSession, Error> {
+        match self.request(&request, crate::CONTROL_TIMEOUT)? {
+            ControlReply::Opened(info) => ZenohSession::new(self.session.clone(), self.endpoint.clone(), request, info),
+            other => Err(unexpected(other)),
+        }
+    }
+
+    pub(crate) fn observe(&self, info: SessionInfo) -> Result<ZenohObserver, Error> {
+        let both = format!("{}/*", info.frame.rsplit_once('/').map_or(info.frame.as_str(), |(root, _)| root));
+        let sub = self.session.declare_subscriber(both).with(RingChannel::new(16)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
+        Ok(ZenohObserver { sub, info, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
+    }
+}
+
+fn request_on(session: &zenoh::Session, endpoint: &str, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+    let json = serde_json::to_vec(request).expect("control requests serialise");
+    let no_daemon = |detail: String| Error::NoDaemon { transport: Transport::Zenoh, detail };
+    let replies = session.get(CONTROL).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
+    let reply = replies.recv().map_err(|_| no_daemon(format!("no reply on {CONTROL} at {endpoint} within {timeout:?}")))?;
+    match reply.result() {
+        Ok(sample) => parse_reply(&sample.payload().to_bytes()),
+        Err(e) => Err(no_daemon(format!("error reply: {}", String::from_utf8_lossy(&e.payload().to_bytes())))),
+    }
+}
+
+struct Channels {
+    publisher: Publisher<'static>,
+    replies: Subscriber<RingChannelHandler<Sample>>,
+    _token: LivelinessToken,
+}
+
+impl Channels {
+    fn declare(z: &zenoh::Session, info: &SessionInfo) -> Result<Self, Error> {
+        let token = z.liveliness().declare_token(client_alive_name(info.session)).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
+        let replies = z.declare_subscriber(info.contacts.clone()).with(RingChannel::new(8)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
+        let publisher = z
+            .declare_publisher(info.frame.clone())
+            .congestion_control(CongestionControl::Block)
+            .express(true)
+            .wait()
+            .map_err(|e| Error::zenoh("declaring the frame publisher", e))?;
+        Ok(Self { publisher, replies, _token: token })
+    }
+}
+
+/// A session over zenoh (see [`crate::Session`]).
+pub(crate) struct ZenohSession {
+    z: zenoh::Session,
+    endpoint: String,
+    request: ControlRequest,
+    channels: Option<Channels>,
+    daemon: Subscriber<FifoChannelHandler<Sample>>,
+    state: Vec<f32>,
+    written: bool,
+    header: ContactsHeader,
+    contacts: Vec<Contact>,
+    pub(crate) info: SessionInfo,
+    pub(crate) layout: StateLayout,
+    pub(crate) frame_no: u64,
+    pub(crate) reconnects: u64,
+}
+
+impl ZenohSession {
+    fn new(z: zenoh::Session, endpoint: String, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
+        let daemon = z.liveliness().declare_subscriber(DAEMON_ALIVE).history(true).wait().map_err(|e| Error::zenoh("watching the daemon", e))?;
+        let channels = Channels::declare(&z, &info)?;
+        let layout = info.layout();
+        Ok(Self {
+            z,
+            endpoint,
+            request,
+            channels: Some(channels),
+            daemon,
+            state: vec![0.0; layout.floats],
+            written: false,
+            header: ContactsHeader::default(),
+            contacts: Vec::with_capacity(info.max_contacts as usize),
+            info,
+            layout,
+            frame_no: 0,
+            reconnects: 0,
+        })
+    }
+
+    /// Whether the daemon's liveliness token went away since the last look.
+    fn daemon_left(&self) -> bool {
+        let mut left = false;
+        while let Ok(Some(s)) = self.daemon.try_recv() {
+            left = s.kind() == SampleKind::Delete;
+        }
+        left
+    }
+
+    fn ensure_open(&mut self) -> Result<(), Error> {
+        if self.channels.is_some() && self.daemon_left() {
+            self.channels = None;
+        }
+        if self.channels.is_none() {
+            let reply = request_on(&self.z, &self.endpoint, &self.request, Duration::from_millis(300)).map_err(|_| Error::Disconnected)?;
+            let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
+            self.channels = Some(Channels::declare(&self.z, &info)?);
+            self.layout = info.layout();
+            self.state.resize(self.layout.floats, 0.0);
+            self.info = info;
+            self.reconnects += 1;
+        }
+        Ok(())
+    }
+
+    pub(crate) fn frame(&mut self) -> Result<&mut [f32], Error> {
+        self.ensure_open()?;
+        self.written = true;
+        Ok(&mut self.state)
+    }
+
+    pub(crate) fn submit(&mut self, edit: impl FnOnce(&mut FrameHeader)) -> Result<u64, Error> {
+        self.ensure_open()?;
+        if !std::mem::take(&mut self.written) {
+            return Err(Error::NoFrame);
+        }
+        let n = self.frame_no;
+        let mut header = FrameHeader::new(self.info.session, n, now_ns(), self.layout.floats, self.layout.bodies.len());
+        edit(&mut header);
+        // zenoh owns what it sends: one buffer per frame.
+        let mut bytes = Vec::with_capacity(FRAME_HEADER_BYTES + 4 * self.state.len());
+        encode_frame(&header, &self.state, &mut bytes);
+        self.channels.as_ref().expect("open").publisher.put(bytes).wait().map_err(|e| Error::zenoh("sending the frame", e))?;
+        self.frame_no += 1;
+        Ok(n)
+    }
+
+    fn accept(&mut self, sample: Sample) -> Result<ContactsView<'_>, Error> {
+        self.header = decode_contacts(&sample.payload().to_bytes(), &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
+        Ok(ContactsView { header: &self.header, contacts: &self.contacts })
+    }
+
+    pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
+        let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
+        match ch.replies.try_recv() {
+            Ok(Some(s)) => self.accept(s).map(Some),
+            Ok(None) => Ok(None),
+            Err(e) => Err(Error::zenoh("receiving contacts", e)),
+        }
+    }
+
+    pub(crate) fn contacts(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
+            let left = deadline.saturating_duration_since(Instant::now());
+            match ch.replies.recv_timeout(left.min(crate::local::LIVENESS_PERIOD)) {
+                Ok(Some(s)) => return self.accept(s),
+                Ok(None) => {}
+                Err(e) => return Err(Error::zenoh("receiving contacts", e)),
+            }
+            if self.daemon_left() {
+                self.channels = None;
+                return Err(Error::Disconnected);
+            }
+            if Instant::now() >= deadline {
+                return Err(Error::Timeout(timeout));
+            }
+        }
+    }
+
+    pub(crate) async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
+        match tokio::time::timeout(timeout, ch.replies.recv_async()).await {
+            Ok(Ok(s)) => self.accept(s),
+            Ok(Err(e)) => Err(Error::zenoh("receiving contacts", e)),
+            Err(_) => Err(Error::Timeout(timeout)),
+        }
+    }
+}
+
+/// An observer over zenoh: one subscription to the session's frame and contacts keys.
+pub(crate) struct ZenohObserver {
+    sub: Subscriber<RingChannelHandler<Sample>>,
+    pub(crate) info: SessionInfo,
+    frame_header: FrameHeader,
+    state: Vec<f32>,
+    header: ContactsHeader,
+    contacts: Vec<Contact>,
+}
+
+impl ZenohObserver {
+    pub(crate) fn next(&mut self, timeout: Duration) -> Result<Observed<'_>, Error> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let Some(sample) = self.sub.recv_timeout(left).map_err(|e| Error::zenoh("observing", e))? else { return Err(Error::Timeout(timeout)) };
+            let bytes = sample.payload().to_bytes();
+            if sample.key_expr().as_str() == self.info.contacts {
+                self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
+                return Ok(Observed::Contacts(ContactsView { header: &self.header, contacts: &self.contacts }));
+            }
+            if sample.key_expr().as_str() == self.info.frame {
+                let Ok(h) = FrameHeader::read(&bytes) else { continue };
+                let body = &bytes[FRAME_HEADER_BYTES..];
+                self.state.clear();
+                self.state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+                self.frame_header = h;
+                return Ok(Observed::Frame { header: &self.frame_header, state: &self.state });
+            }
+        }
+    }
+}

@@ -1,0 +1,144 @@
+use crate::local::LocalSession;
+use crate::remote::ZenohSession;
+use crate::view::ContactsView;
+use crate::Error;
+use lumen_proto::session::SessionInfo;
+use lumen_proto::StateLayout;
+use std::time::Duration;
+
+/// One open scene: write a frame in place, submit it, read its contacts.
+///
+/// Frames are numbered from 0 in submission order; each reply names the frame it answers. If the
+/// client outruns the daemon the newest frame wins (the reply's `skipped` counts the others).
+/// If the daemon goes away, calls fail with [`Error::Disconnected`] and the session reopens by
+/// itself (new id, same spec) on a later [`Session::frame`] / [`Session::submit`].
+pub struct Session {
+    inner: Inner,
+}
+
+enum Inner {
+    Local(LocalSession),
+    Zenoh(ZenohSession),
+}
+
+impl Session {
+    pub(crate) fn from_local(s: LocalSession) -> Self {
+        Self { inner: Inner::Local(s) }
+    }
+    pub(crate) fn from_zenoh(s: ZenohSession) -> Self {
+        Self { inner: Inner::Zenoh(s) }
+    }
+
+    /// The session id (changes when the session reopens after a daemon restart).
+    pub fn id(&self) -> u64 {
+        self.info().session
+    }
+
+    /// The daemon's description of the session (id, channel names, sizes).
+    pub fn info(&self) -> &SessionInfo {
+        match &self.inner {
+            Inner::Local(s) => &s.info,
+            Inner::Zenoh(s) => &s.info,
+        }
+    }
+
+    /// Where each body's floats go in [`Session::frame`].
+    pub fn layout(&self) -> &StateLayout {
+        match &self.inner {
+            Inner::Local(s) => &s.layout,
+            Inner::Zenoh(s) => &s.layout,
+        }
+    }
+
+    /// How many times the session reopened after losing the daemon.
+    pub fn reconnects(&self) -> u64 {
+        match &self.inner {
+            Inner::Local(s) => s.reconnects,
+            Inner::Zenoh(s) => s.reconnects,
+        }
+    }
+
+    /// The number the next submitted frame will carry.
+    pub fn next_frame_number(&self) -> u64 {
+        match &self.inner {
+            Inner::Local(s) => s.frame_no,
+            Inner::Zenoh(s) => s.frame_no,
+        }
+    }
+
+    /// The frame to fill: `layout().floats` values in the spec's layout
+    /// ([`lumen_proto::state`]). On iceoryx2 it is the shared memory the daemon will read
+    /// (no copy anywhere); it holds stale data, so write every value. Calling it again before
+    /// [`Session::submit`] returns the same frame.
+    pub fn frame(&mut self) -> Result<&mut [f32], Error> {
+        match &mut self.inner {
+            Inner::Local(s) => s.frame(),
+            Inner::Zenoh(s) => s.frame(),
+        }
+    }
+
+    /// Sends the frame written through [`Session::frame`]; returns its frame number.
+    pub fn submit(&mut self) -> Result<u64, Error> {
+        self.submit_with(|_| {})
+    }
+
+    /// Like [`Session::submit`], letting `edit` change the header first (tools and tests that
+    /// need a malformed frame; normal clients never need it).
+    pub fn submit_with(&mut self, edit: impl FnOnce(&mut lumen_proto::wire::FrameHeader)) -> Result<u64, Error> {
+        match &mut self.inner {
+            Inner::Local(s) => s.submit(edit),
+            Inner::Zenoh(s) => s.submit(edit),
+        }
+    }
+
+    /// Copies `state` into a frame and submits it (convenience; costs one copy).
+    pub fn submit_state(&mut self, state: &[f32]) -> Result<u64, Error> {
+        let frame = self.frame()?;
+        if frame.len() != state.len() {
+            // Let the daemon name the problem: send what fits and report the length it had.
+            let n = frame.len().min(state.len());
+            frame[..n].copy_from_slice(&state[..n]);
+        } else {
+            frame.copy_from_slice(state);
+        }
+        self.submit()
+    }
+
+    /// The next reply, waiting up to `timeout` (blocking; no busy polling).
+    pub fn contacts(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        match &mut self.inner {
+            Inner::Local(s) => s.contacts(timeout),
+            Inner::Zenoh(s) => s.contacts(timeout),
+        }
+    }
+
+    /// The next reply if one is there, without waiting.
+    pub fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
+        match &mut self.inner {
+            Inner::Local(s) => s.try_contacts(),
+            Inner::Zenoh(s) => s.try_contacts(),
+        }
+    }
+
+    /// The next reply, asynchronously (needs a tokio runtime). Zenoh awaits the subscriber;
+    /// iceoryx2 looks every 50 us between timer sleeps (use [`Session::contacts`] on a thread
+    /// for the lowest latency).
+    pub async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        match &mut self.inner {
+            Inner::Local(s) => {
+                let deadline = tokio::time::Instant::now() + timeout;
+                loop {
+                    if s.try_contacts()?.is_some() {
+                        break;
+                    }
+                    if tokio::time::Instant::now() >= deadline {
+                        return Err(Error::Timeout(timeout));
+                    }
+                    tokio::time::sleep(Duration::from_micros(50)).await;
+                }
+                Ok(s.last_view().expect("just received"))
+            }
+            Inner::Zenoh(s) => s.contacts_async(timeout).await,
+        }
+    }
+}

@@ -1,0 +1,319 @@
+//! `lumen bench ipc`: round trip (frame submitted -> contacts received) on the colon-sized
+//! scene, on each transport, back to back, paced at 1 kHz and with four paced sessions at once;
+//! each against a bare echo of the same payload over the same transport (no detection).
+//!
+//! The daemon is the real `lumen serve`, started as a child process with a private iceoryx2
+//! prefix and zenoh port; the clients are threads of this process.
+
+use super::scene;
+use lumen_client::{now_ns, Client, Error as ClientError, LocalOptions, Session, Transport};
+use lumen_proto::{SceneSpec, StateLayout};
+use serde::Serialize;
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// One measured configuration.
+#[derive(Debug, Clone, Serialize)]
+pub struct IpcRun {
+    pub transport: String,
+    /// `back-to-back`, `paced-1khz` or `4-sessions`.
+    pub mode: String,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub p999_us: f64,
+    /// p50 of the bare echo, same transport, mode and payload.
+    pub echo_p50_us: f64,
+    /// Median detection time reported by the daemon.
+    pub detect_us: f64,
+    /// Frames measured (after warm-up; all sessions).
+    pub frames: u64,
+    /// Frames without their own reply (timed out, skipped or refused).
+    pub lost_frames: u64,
+}
+
+/// Everything `ipc.json` holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct IpcReport {
+    pub scene: String,
+    pub floats_per_frame: usize,
+    pub quick: bool,
+    pub cores: usize,
+    pub runs: Vec<IpcRun>,
+}
+
+impl IpcReport {
+    /// The table of `ipc.md` (and the README).
+    pub fn markdown(&self) -> String {
+        let mut s = format!(
+            "# lumen bench ipc\n\nScene: {} ({} floats = {:.0} KiB per frame). {} cores{}.\nRound trip = frame submitted -> contacts received, in microseconds; echo = same transport and payload, no detection.\n\n",
+            self.scene,
+            self.floats_per_frame,
+            self.floats_per_frame as f64 * 4.0 / 1024.0,
+            self.cores,
+            if self.quick { ", --quick" } else { "" }
+        );
+        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | detect | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        for r in &self.runs {
+            s += &format!(
+                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
+                r.transport,
+                r.mode,
+                r.p50_us,
+                r.p99_us,
+                r.p999_us,
+                r.echo_p50_us,
+                r.detect_us,
+                r.p50_us - r.echo_p50_us - r.detect_us,
+                r.frames,
+                r.lost_frames
+            );
+        }
+        s
+    }
+}
+
+/// Mode of one measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    BackToBack,
+    Paced1kHz,
+}
+
+/// The benchmark's plan.
+pub struct IpcBench {
+    quick: bool,
+    transports: Vec<Transport>,
+    prefix: String,
+    endpoint: String,
+}
+
+/// Round trips and detection times of one measurement.
+#[derive(Debug, Default)]
+struct Samples {
+    rtt_ns: Vec<u64>,
+    detect_ns: Vec<u64>,
+    lost: u64,
+}
+
+impl Samples {
+    fn merge(&mut self, o: Samples) {
+        self.rtt_ns.extend(o.rtt_ns);
+        self.detect_ns.extend(o.detect_ns);
+        self.lost += o.lost;
+    }
+}
+
+fn quantile_us(v: &mut [u64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_unstable();
+    let i = ((v.len() as f64 * q).ceil() as usize).clamp(1, v.len()) - 1;
+    v[i] as f64 / 1e3
+}
+
+/// The `lumen serve` child of the benchmark; stopped with SIGTERM when dropped.
+pub struct DaemonChild {
+    child: Child,
+}
+
+impl DaemonChild {
+    /// Starts `exe serve ARGS...` and waits for its "ready" line.
+    pub fn spawn(exe: &std::path::Path, args: &[String]) -> Result<Self, String> {
+        let mut child = Command::new(exe).arg("serve").args(args).stdout(Stdio::piped()).stderr(Stdio::inherit()).spawn().map_err(|e| format!("starting {}: {e}", exe.display()))?;
+        let stdout = child.stdout.take().expect("piped");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if line.contains("ready") {
+                    let _ = tx.send(());
+                }
+            }
+        });
+        let mut me = Self { child };
+        if rx.recv_timeout(Duration::from_secs(20)).is_err() {
+            let _ = me.child.kill();
+            return Err("the daemon did not get ready within 20 s".into());
+        }
+        Ok(me)
+    }
+}
+
+impl Drop for DaemonChild {
+    fn drop(&mut self) {
+        // SAFETY: signalling our own child by its pid.
+        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A free TCP port on loopback.
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).unwrap_or(17447)
+}
+
+impl IpcBench {
+    /// A plan; `only` restricts it to `iceoryx2` or `zenoh`.
+    pub fn new(quick: bool, only: Option<&str>) -> Result<Self, String> {
+        let transports = match only {
+            None => vec![Transport::Iceoryx2, Transport::Zenoh],
+            Some("iceoryx2") => vec![Transport::Iceoryx2],
+            Some("zenoh") => vec![Transport::Zenoh],
+            Some(o) => return Err(format!("unknown transport {o:?}: use iceoryx2 or zenoh")),
+        };
+        let prefix = format!("lumen_bench_{}_", std::process::id());
+        Ok(Self { quick, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
+    }
+
+    fn client(&self, t: Transport) -> Result<Client, ClientError> {
+        match t {
+            Transport::Iceoryx2 => Client::local_with(LocalOptions { prefix: Some(self.prefix.clone()), name: Some("bench".into()) }),
+            Transport::Zenoh => Client::zenoh(&self.endpoint),
+        }
+    }
+
+    /// Runs every measurement against a fresh daemon.
+    pub fn run(&self) -> Result<IpcReport, Box<dyn std::error::Error>> {
+        let exe = std::env::current_exe()?;
+        let args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--log", "warn"].iter().map(|s| s.to_string()).collect();
+        let _daemon = DaemonChild::spawn(&exe, &args)?;
+        let spec = scene::spec();
+        let layout = StateLayout::of(&spec);
+        let states = Arc::new(precompute(&layout));
+        let (b2b, paced) = if self.quick { (1500, 1500) } else { (10_000, 10_000) };
+        let mut runs = Vec::new();
+        let bar = indicatif::ProgressBar::new((self.transports.len() * 6) as u64);
+        bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("template"));
+        for &t in &self.transports {
+            for (mode, n) in [(Mode::BackToBack, b2b), (Mode::Paced1kHz, paced)] {
+                bar.set_message(format!("{t} {mode:?}"));
+                let client = self.client(t)?;
+                let echo = measure(&client, &spec, &states, mode, n, true)?;
+                bar.inc(1);
+                let det = measure(&client, &spec, &states, mode, n, false)?;
+                bar.inc(1);
+                runs.push(summarise(t, if mode == Mode::BackToBack { "back-to-back" } else { "paced-1khz" }, det, echo));
+            }
+            bar.set_message(format!("{t} 4 sessions"));
+            let echo = self.sessions(t, 4, &spec, &states, paced / 2, true)?;
+            let det = self.sessions(t, 4, &spec, &states, paced / 2, false)?;
+            bar.inc(2);
+            runs.push(summarise(t, "4-sessions", det, echo));
+        }
+        bar.finish_and_clear();
+        Ok(IpcReport {
+            scene: format!("stand-in colon: tube {} rings x {} spokes + rod of {} points, interior contacts, precision 4", scene::RINGS, scene::SPOKES, scene::ROD_POINTS),
+            floats_per_frame: layout.floats,
+            quick: self.quick,
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            runs,
+        })
+    }
+
+    /// `k` sessions at 1 kHz each at once, one client thread per session.
+    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize, echo: bool) -> Result<Samples, Box<dyn std::error::Error>> {
+        let start = Instant::now() + Duration::from_millis(300);
+        let handles: Vec<_> = (0..k)
+            .map(|_| {
+                let (spec, states) = (spec.clone(), states.clone());
+                let (prefix, endpoint) = (self.prefix.clone(), self.endpoint.clone());
+                std::thread::spawn(move || -> Result<Samples, String> {
+                    let me = IpcBench { quick: true, transports: vec![], prefix, endpoint };
+                    let client = me.client(t).map_err(|e| e.to_string())?;
+                    std::thread::sleep(start.saturating_duration_since(Instant::now()));
+                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, echo).map_err(|e| e.to_string())
+                })
+            })
+            .collect();
+        let mut all = Samples::default();
+        for h in handles {
+            all.merge(h.join().map_err(|_| "a session thread panicked")??);
+        }
+        Ok(all)
+    }
+}
+
+fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> IpcRun {
+    IpcRun {
+        transport: t.to_string(),
+        mode: mode.into(),
+        p50_us: quantile_us(&mut det.rtt_ns, 0.5),
+        p99_us: quantile_us(&mut det.rtt_ns, 0.99),
+        p999_us: quantile_us(&mut det.rtt_ns, 0.999),
+        echo_p50_us: quantile_us(&mut echo.rtt_ns, 0.5),
+        detect_us: quantile_us(&mut det.detect_ns, 0.5),
+        frames: det.rtt_ns.len() as u64 + det.lost,
+        lost_frames: det.lost,
+    }
+}
+
+/// 64 consecutive frames of the scene, played forwards then backwards so motion is continuous.
+fn precompute(layout: &StateLayout) -> Vec<Vec<f32>> {
+    (0..64u64)
+        .map(|k| {
+            let mut s = vec![0.0; layout.floats];
+            scene::write_state(k, &mut s);
+            s
+        })
+        .collect()
+}
+
+fn state_index(k: usize) -> usize {
+    let p = k % 126;
+    if p < 64 {
+        p
+    } else {
+        126 - p
+    }
+}
+
+/// Submits `frames` frames (after a warm-up) and waits for each reply.
+fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize, echo: bool) -> Result<Samples, ClientError> {
+    let mut session: Session = if echo { client.open_echo_session(spec)? } else { client.open_session(spec)? };
+    let warm = (frames / 10).max(50);
+    let mut out = Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), lost: 0 };
+    let start = Instant::now();
+    for k in 0..warm + frames {
+        if mode == Mode::Paced1kHz {
+            let due = start + Duration::from_micros(1000 * k as u64);
+            std::thread::sleep(due.saturating_duration_since(Instant::now()));
+        }
+        session.frame()?.copy_from_slice(&states[state_index(k)]);
+        let n = session.submit()?;
+        let measured = k >= warm;
+        loop {
+            match session.contacts(Duration::from_secs(1)) {
+                Ok(reply) if reply.frame() < n => continue, // a late answer to an earlier frame
+                Ok(reply) => {
+                    if !measured {
+                        break;
+                    }
+                    if reply.frame() != n || reply.result().is_err() {
+                        out.lost += 1;
+                    } else {
+                        out.rtt_ns.push(now_ns().saturating_sub(reply.header().client_time_ns));
+                        out.detect_ns.push(reply.header().detect_ns as u64);
+                        out.lost += reply.header().skipped as u64;
+                    }
+                    break;
+                }
+                Err(ClientError::Timeout(_)) => {
+                    out.lost += measured as u64;
+                    break;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+    Ok(out)
+}

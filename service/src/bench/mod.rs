@@ -1,0 +1,4 @@
+//! Benchmarks behind `lumen bench`.
+
+pub mod ipc;
+pub mod scene;

@@ -1,0 +1,31 @@
+//! `lumen bench ipc [--quick] [--out DIR]`.
+
+use crate::bench::ipc::{IpcBench, IpcReport};
+use crate::cli::CliResult;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct IpcArgs {
+    /// Fewer frames: finishes in well under a minute.
+    #[arg(long)]
+    pub quick: bool,
+    /// Where to write ipc.json and ipc.md.
+    #[arg(long, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Only this transport (iceoryx2 or zenoh).
+    #[arg(long)]
+    pub only: Option<String>,
+}
+
+pub fn run(args: IpcArgs) -> CliResult {
+    let bench = IpcBench::new(args.quick, args.only.as_deref())?;
+    let report: IpcReport = bench.run()?;
+    std::fs::create_dir_all(&args.out)?;
+    std::fs::write(args.out.join("ipc.json"), serde_json::to_string_pretty(&report)?)?;
+    let md = report.markdown();
+    std::fs::write(args.out.join("ipc.md"), &md)?;
+    print!("{md}");
+    eprintln!("wrote {} and {}", args.out.join("ipc.json").display(), args.out.join("ipc.md").display());
+    Ok(())
+}

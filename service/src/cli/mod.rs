@@ -1,0 +1,57 @@
+//! The `lumen` command line: one module per subcommand.
+
+pub mod bench;
+pub mod serve;
+pub mod status;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Lumen: collision detection for colonoscopy simulators.
+#[derive(Debug, Parser)]
+#[command(name = "lumen", version, about)]
+pub struct Cli {
+    /// Log filter (e.g. `info`, `lumen_service=debug`); also `RUST_LOG`.
+    #[arg(long, global = true, default_value = "info")]
+    pub log: String,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the daemon (iceoryx2 on this machine, zenoh across machines).
+    Serve(serve::ServeArgs),
+    /// List the daemon's sessions with frame rates, latencies and contact counts.
+    Status(status::StatusArgs),
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+}
+
+impl Cli {
+    /// Runs the chosen subcommand.
+    pub fn run(self) -> ExitCode {
+        init_logging(&self.log);
+        let result = match self.command {
+            Command::Serve(a) => serve::run(a),
+            Command::Status(a) => status::run(a),
+            Command::Bench(b) => b.run(),
+        };
+        match result {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("lumen: {e}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+}
+
+fn init_logging(filter: &str) {
+    let filter = std::env::var("RUST_LOG").unwrap_or_else(|_| format!("{filter},zenoh=warn"));
+    let _ = tracing_subscriber::fmt().with_env_filter(tracing_subscriber::EnvFilter::new(filter)).with_writer(std::io::stderr).try_init();
+}
+
+/// An error of any subcommand, for people.
+pub type CliResult = Result<(), Box<dyn std::error::Error>>;

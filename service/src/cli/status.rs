@@ -1,0 +1,62 @@
+//! `lumen status`: the daemon's sessions as a table (or JSON).
+
+use super::CliResult;
+use clap::Args;
+use lumen_client::{Client, LocalOptions, StatusReport};
+
+#[derive(Debug, Args)]
+pub struct StatusArgs {
+    /// Ask over zenoh at this endpoint instead of iceoryx2.
+    #[arg(long = "zenoh", value_name = "ENDPOINT")]
+    pub zenoh: Option<String>,
+    /// iceoryx2 prefix of the daemon (env LUMEN_IOX2_PREFIX).
+    #[arg(long, env = "LUMEN_IOX2_PREFIX")]
+    pub prefix: Option<String>,
+    /// Print the raw JSON report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: StatusArgs) -> CliResult {
+    let client = match &args.zenoh {
+        Some(ep) => Client::zenoh(ep)?,
+        None => Client::local_with(LocalOptions { prefix: args.prefix.clone(), name: Some("lumen status".into()) })?,
+    };
+    let report = client.status()?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", table(&report));
+    }
+    Ok(())
+}
+
+/// The report as a text table.
+pub fn table(r: &StatusReport) -> String {
+    let mut s = format!("lumen daemon pid {} (v{}), up {:.0} s, {} sessions\n", r.pid, r.version, r.uptime_s, r.sessions.len());
+    if r.sessions.is_empty() {
+        return s;
+    }
+    s += &format!(
+        "{:>18} {:<9} {:<14} {:>8} {:>6} {:>7} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9}\n",
+        "session", "transport", "client", "frames", "bad", "skipped", "fps", "det p50", "det p99", "svc p50", "svc p99", "contacts"
+    );
+    for x in &r.sessions {
+        s += &format!(
+            "{:>18} {:<9} {:<14} {:>8} {:>6} {:>7} {:>8.1} {:>6.0}us {:>6.0}us {:>7.0}us {:>7.0}us {:>9}\n",
+            x.session,
+            x.transport.to_string(),
+            x.client.chars().take(14).collect::<String>(),
+            x.frames,
+            x.bad_frames,
+            x.skipped,
+            x.fps,
+            x.detect.p50_us,
+            x.detect.p99_us,
+            x.service.p50_us,
+            x.service.p99_us,
+            x.contacts_last
+        );
+    }
+    s
+}

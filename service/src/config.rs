@@ -1,0 +1,140 @@
+//! `lumen serve` configuration: a TOML file, overridden by command-line flags.
+//!
+//! ```toml
+//! [iceoryx2]
+//! enabled = true
+//! prefix = "iox2_"          # file-name prefix in /dev/shm; clients must use the same
+//!
+//! [zenoh]
+//! listen = ["tcp/0.0.0.0:7447"]
+//! connect = []              # e.g. a router: ["tcp/10.0.0.1:7447"]
+//! mode = "router"           # "router" or "peer"
+//!
+//! [limits]
+//! max_sessions = 16
+//! max_observers = 4         # per session (iceoryx2 subscribers beyond the client)
+//! max_contacts = 65536      # per reply; more are cut and flagged
+//! max_session_mib = 512     # shared memory one session may pin
+//! ```
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The whole configuration.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ServeConfig {
+    pub iceoryx2: IceoryxConfig,
+    pub zenoh: ZenohConfig,
+    pub limits: Limits,
+}
+
+/// The shared-memory transport.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IceoryxConfig {
+    pub enabled: bool,
+    /// iceoryx2 `global.prefix`; `None` is iceoryx2's default (`iox2_`).
+    pub prefix: Option<String>,
+}
+
+impl Default for IceoryxConfig {
+    fn default() -> Self {
+        Self { enabled: true, prefix: None }
+    }
+}
+
+/// The network transport; off unless it listens or connects somewhere.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ZenohConfig {
+    /// Endpoints to listen on, e.g. `tcp/0.0.0.0:7447`.
+    pub listen: Vec<String>,
+    /// Endpoints to connect to (a router).
+    pub connect: Vec<String>,
+    /// `router` (clients in client mode route through the daemon) or `peer`.
+    pub mode: String,
+}
+
+impl Default for ZenohConfig {
+    fn default() -> Self {
+        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into() }
+    }
+}
+
+impl ZenohConfig {
+    /// Whether zenoh is used at all.
+    pub fn enabled(&self) -> bool {
+        !self.listen.is_empty() || !self.connect.is_empty()
+    }
+}
+
+/// Bounds that keep the daemon's memory bounded whatever clients ask.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Limits {
+    /// Sessions open at once (both transports).
+    pub max_sessions: usize,
+    /// Observers per iceoryx2 session.
+    pub max_observers: usize,
+    /// Contacts per reply.
+    pub max_contacts: usize,
+    /// Shared memory one iceoryx2 session may pin (frames and replies, all buffers), MiB; also
+    /// bounds a zenoh session's frame.
+    pub max_session_mib: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self { max_sessions: 16, max_observers: 4, max_contacts: 65_536, max_session_mib: 512 }
+    }
+}
+
+/// A configuration file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("cannot read {path}: {source}")]
+    Read { path: String, source: std::io::Error },
+    #[error("{path}: {source}")]
+    Parse { path: String, source: toml::de::Error },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl ServeConfig {
+    /// Reads a TOML file.
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read { path: path.display().to_string(), source })?;
+        toml::from_str(&text).map_err(|source| ConfigError::Parse { path: path.display().to_string(), source })
+    }
+
+    /// Checks that something is served and the limits make sense.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !self.iceoryx2.enabled && !self.zenoh.enabled() {
+            return Err(ConfigError::Invalid("nothing to serve: iceoryx2 is disabled and zenoh has no listen/connect endpoint (try --zenoh-listen tcp/0.0.0.0:7447)".into()));
+        }
+        if !matches!(self.zenoh.mode.as_str(), "router" | "peer") {
+            return Err(ConfigError::Invalid(format!("zenoh mode {:?}: use \"router\" or \"peer\"", self.zenoh.mode)));
+        }
+        let l = &self.limits;
+        if l.max_sessions == 0 || l.max_contacts == 0 || l.max_session_mib == 0 || l.max_observers > 64 {
+            return Err(ConfigError::Invalid(format!("limits {l:?}: sessions, contacts and MiB must be > 0, observers at most 64")));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_with_defaults_and_typos_rejected() {
+        let c: ServeConfig = toml::from_str("[zenoh]\nlisten = [\"tcp/127.0.0.1:7447\"]\n[limits]\nmax_sessions = 3\n").unwrap();
+        assert!(c.iceoryx2.enabled && c.zenoh.enabled());
+        assert_eq!((c.limits.max_sessions, c.limits.max_observers, c.zenoh.mode.as_str()), (3, 4, "router"));
+        assert!(toml::from_str::<ServeConfig>("[limits]\nmax_sesions = 3\n").unwrap_err().to_string().contains("max_sesions"));
+        let off = ServeConfig { iceoryx2: IceoryxConfig { enabled: false, prefix: None }, ..Default::default() };
+        assert!(off.validate().unwrap_err().to_string().contains("nothing to serve"));
+    }
+}

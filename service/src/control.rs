@@ -1,0 +1,167 @@
+//! Control requests, the same on both transports: validate, size, register, describe, report.
+
+use crate::registry::{Entry, Registry};
+use lumen_proto::session::{contacts_name, frame_name, client_alive_name, ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
+use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
+use lumen_proto::{SceneSpec, StateLayout};
+use std::sync::Arc;
+
+/// iceoryx2 buffers per session (see `local`): frames are kept one deep per subscriber (newest
+/// wins), replies four deep.
+pub const FRAME_BUFFER: usize = 1;
+pub const CONTACTS_BUFFER: usize = 4;
+pub const CONTACTS_BORROWED: usize = 2;
+
+/// A session accepted by [`open`], to be started by its transport.
+pub struct Plan {
+    pub entry: Arc<Entry>,
+    pub echo: bool,
+}
+
+fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
+    ControlReply::Error(ControlError { code, message: message.into() })
+}
+
+/// Most contacts a spec can produce in one frame: one per sample of each pair's rod.
+pub fn contact_bound(spec: &SceneSpec) -> usize {
+    let x = spec.precision as usize;
+    spec.pairs
+        .iter()
+        .filter_map(|p| spec.body_index(&p.a))
+        .map(|a| (spec.bodies[a].points().saturating_sub(1)) * x + 1)
+        .sum::<usize>()
+        .max(1)
+}
+
+/// Bytes of shared memory an iceoryx2 session pins: the client's frame segment and the
+/// daemon's contacts segment, each sized for every subscriber's buffers plus one loan.
+pub fn session_bytes(floats: usize, max_contacts: usize, observers: usize) -> usize {
+    let subs = 1 + observers;
+    let frames = subs * (FRAME_BUFFER + 1) + 1;
+    let replies = subs * (CONTACTS_BUFFER + CONTACTS_BORROWED) + 1;
+    frames * (FRAME_HEADER_BYTES + 4 * floats) + replies * (CONTACTS_HEADER_BYTES + CONTACT_BYTES * max_contacts)
+}
+
+/// Decodes a request; a reply is returned for anything unreadable.
+pub fn decode(bytes: &[u8]) -> Result<ControlRequest, ControlReply> {
+    if bytes.len() > MAX_CONTROL_BYTES {
+        return Err(error(ErrorCode::BadRequest, format!("control request of {} bytes; at most {MAX_CONTROL_BYTES} are read", bytes.len())));
+    }
+    serde_json::from_slice(bytes).map_err(|e| error(ErrorCode::BadRequest, format!("not a control request: {e}")))
+}
+
+/// Handles a request on `transport`; `start` launches an accepted session and says whether it
+/// could (its channels exist when it returns `Ok`).
+pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest, start: impl FnOnce(Plan) -> Result<(), String>) -> ControlReply {
+    match request {
+        ControlRequest::Status => ControlReply::Status(registry.status()),
+        ControlRequest::Describe { session } => match registry.get(session) {
+            Some(e) => ControlReply::Described(e.info.clone()),
+            None => error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted")),
+        },
+        ControlRequest::Close { session } => match registry.get(session) {
+            Some(e) => {
+                e.close.store(true, std::sync::atomic::Ordering::SeqCst);
+                ControlReply::Closed { session }
+            }
+            None => error(ErrorCode::UnknownSession, format!("no session {session}")),
+        },
+        ControlRequest::Open { version, spec, client, echo } => open(registry, transport, version, spec, client, echo, start),
+    }
+}
+
+fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec, client: String, echo: bool, start: impl FnOnce(Plan) -> Result<(), String>) -> ControlReply {
+    if version != PROTOCOL_VERSION {
+        return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
+    }
+    if let Err(e) = spec.validate() {
+        return error(ErrorCode::Spec, format!("invalid scene spec: {e}"));
+    }
+    let limits = registry.limits;
+    let layout = StateLayout::of(&spec);
+    let max_contacts = contact_bound(&spec).min(limits.max_contacts);
+    let observers = limits.max_observers;
+    let bytes = match transport {
+        Transport::Iceoryx2 => session_bytes(layout.floats, max_contacts, observers),
+        Transport::Zenoh => FRAME_HEADER_BYTES + 4 * layout.floats,
+    };
+    let allowed = limits.max_session_mib << 20;
+    if bytes > allowed {
+        return error(
+            ErrorCode::Limit,
+            format!("this scene needs {:.1} MiB per session ({} floats per frame); the daemon allows {} MiB (limits.max_session_mib): use fewer rings or spokes, or raise the limit", bytes as f64 / 1048576.0, layout.floats, limits.max_session_mib),
+        );
+    }
+    if !registry.has_room() {
+        return error(ErrorCode::Busy, format!("the daemon already serves {} sessions (limits.max_sessions): close one or raise the limit", limits.max_sessions));
+    }
+    let id = registry.next_id();
+    let info = SessionInfo {
+        session: id,
+        transport,
+        spec,
+        floats: layout.floats as u32,
+        bodies: layout.bodies.len() as u32,
+        max_contacts: max_contacts as u32,
+        frame: frame_name(id),
+        contacts: contacts_name(id),
+        alive: if transport == Transport::Zenoh { client_alive_name(id) } else { String::new() },
+        max_observers: observers as u32,
+    };
+    let Some(entry) = registry.insert(info.clone(), client) else {
+        return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
+    };
+    match start(Plan { entry, echo }) {
+        Ok(()) => ControlReply::Opened(info),
+        Err(e) => {
+            registry.remove(id);
+            error(ErrorCode::Internal, format!("could not create the session's channels: {e}"))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Limits;
+    use lumen_proto::{BodySpec, ContactKind, PairSpec, Shape};
+
+    fn spec(rings: usize) -> SceneSpec {
+        SceneSpec::new(
+            vec![
+                BodySpec { name: "colon".into(), shape: Shape::Tube { rings, spokes: 32 } },
+                BodySpec { name: "scope".into(), shape: Shape::Rod { points: 160, radius: vec![6.5] } },
+            ],
+            vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }],
+        )
+    }
+
+    fn open_req(spec: SceneSpec) -> ControlRequest {
+        ControlRequest::Open { version: PROTOCOL_VERSION, spec, client: "t".into(), echo: false }
+    }
+
+    #[test]
+    fn open_sizes_checks_and_registers() {
+        let reg = Registry::new(Limits { max_sessions: 1, max_session_mib: 64, ..Limits::default() });
+        assert_eq!(contact_bound(&spec(1250)), 159 * 4 + 1);
+        let ControlReply::Opened(info) = handle(&reg, Transport::Iceoryx2, open_req(spec(1250)), |_| Ok(())) else { panic!() };
+        assert_eq!((info.floats, info.max_contacts), (1250 * 33 * 3 + 480, 637));
+        assert_eq!(info.frame, format!("lumen/session/{}/frame", info.session));
+        // Full: the second is refused as busy, with the limit named.
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Ok(())) else { panic!() };
+        assert_eq!(e.code, ErrorCode::Busy);
+        assert!(e.message.contains("max_sessions"), "{}", e.message);
+        reg.remove(info.session);
+        // Beyond the memory limit: 65536 rings of 32 spokes is ~26 MB per frame.
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(65_536)), |_| Ok(())) else { panic!() };
+        assert_eq!(e.code, ErrorCode::Limit);
+        // Invalid spec: the message names the body.
+        let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, open_req(spec(1)), |_| Ok(())) else { panic!() };
+        assert_eq!(e.code, ErrorCode::Spec);
+        assert!(e.message.contains("\"colon\""), "{}", e.message);
+        // A failing transport leaves nothing registered.
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Err("no shm".into())) else { panic!() };
+        assert_eq!((e.code, reg.len()), (ErrorCode::Internal, 0));
+        assert!(matches!(decode(b"{\"op\":\"explode\"}"), Err(ControlReply::Error(ControlError { code: ErrorCode::BadRequest, .. }))));
+    }
+}

@@ -1,0 +1,316 @@
+//! The daemon's iceoryx2 side: a control thread (request-response server woken by its event)
+//! and one thread per session that sleeps in a WaitSet until the client's frame event, reads the
+//! frame in place from shared memory, detects, and writes the reply into a loaned sample.
+
+use crate::control::{self, Plan, CONTACTS_BORROWED, CONTACTS_BUFFER, FRAME_BUFFER};
+use crate::engine::Engine;
+use crate::registry::Registry;
+use iceoryx2::prelude::*;
+use lumen_client::local::{config, node, service_name, ContactsService, EventService, FrameService, Svc, EVENT_PEER_DIED, EVENT_SENT};
+use lumen_client::Error as ClientError;
+use lumen_proto::session::{ControlReply, Transport, CONTROL};
+use lumen_proto::wire::{ContactsHeader, FrameHeader};
+use lumen_proto::Contact;
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// How often threads look at the shutdown flag, clean up dead nodes and check their client.
+pub const TICK: Duration = Duration::from_millis(100);
+/// How long a new session waits for its client's frame publisher before it is dropped.
+pub const CONNECT_GRACE: Duration = Duration::from_secs(5);
+
+/// The iceoryx2 transport of a running daemon.
+pub struct Local {
+    prefix: Option<String>,
+    registry: Arc<Registry>,
+}
+
+fn iox(what: &str, e: impl std::fmt::Debug) -> String {
+    format!("{what}: {e:?}")
+}
+
+impl Local {
+    pub fn new(prefix: Option<String>, registry: Arc<Registry>) -> Self {
+        Self { prefix, registry }
+    }
+
+    /// Starts the control thread; returns once it serves (or why it cannot).
+    pub fn start(self) -> Result<JoinHandle<()>, String> {
+        let (tx, rx) = mpsc::channel();
+        let handle = std::thread::Builder::new()
+            .name("iox2-control".into())
+            .spawn(move || {
+                if let Err(e) = self.serve(&tx) {
+                    let _ = tx.send(Err(e.clone()));
+                    tracing::error!("iceoryx2 control stopped: {e}");
+                }
+            })
+            .map_err(|e| e.to_string())?;
+        rx.recv().map_err(|_| "the iceoryx2 control thread died".to_string())??;
+        Ok(handle)
+    }
+
+    fn serve(self, ready: &mpsc::Sender<Result<(), String>>) -> Result<(), String> {
+        let cfg = config(self.prefix.as_deref()).map_err(|e| e.to_string())?;
+        let node = node(&cfg, "lumen-daemon").map_err(|e| e.to_string())?;
+        let cleaned = node.try_cleanup_dead_nodes();
+        if cleaned.cleanups > 0 {
+            tracing::info!("removed the shared memory of {} dead processes", cleaned.cleanups);
+        }
+        let name = service_name(CONTROL).map_err(|e| e.to_string())?;
+        let service = node
+            .service_builder(&name)
+            .request_response::<[u8], [u8]>()
+            .max_clients(256)
+            .max_active_requests_per_client(1)
+            .open_or_create()
+            .map_err(|e| iox("creating the control service", e))?;
+        let server = service
+            .server_builder()
+            .initial_max_slice_len(64 * 1024)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(|e| iox("creating the control server", e))?;
+        let wake = node.service_builder(&name).event().max_notifiers(256).open_or_create().map_err(|e| iox("creating the control event", e))?;
+        let listener = wake.listener_builder().create().map_err(|e| iox("creating the control listener", e))?;
+        let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;
+        let on_request = waitset.attach_notification(&listener).map_err(|e| iox("attaching", e))?;
+        let on_tick = waitset.attach_interval(TICK).map_err(|e| iox("attaching", e))?;
+        let _ = ready.send(Ok(()));
+        let mut sessions: Vec<JoinHandle<()>> = Vec::new();
+        let result = waitset.wait_and_process(|id| {
+            if id.has_event_from(&on_request) {
+                let _ = listener.try_wait(|_| {});
+            }
+            // Requests are few: look at the server on every wake-up.
+            loop {
+                let request = match server.receive() {
+                    Ok(Some(r)) => r,
+                    Ok(None) => break,
+                    Err(e) => {
+                        tracing::warn!("control receive: {e:?}");
+                        break;
+                    }
+                };
+                let reply = match control::decode(request.payload()) {
+                    Ok(req) => control::handle(&self.registry, Transport::Iceoryx2, req, |plan| {
+                        let (h, r) = start_session(cfg.clone(), plan, self.registry.clone())?;
+                        sessions.push(h);
+                        r
+                    }),
+                    Err(reply) => reply,
+                };
+                let bytes = serde_json::to_vec(&reply).expect("replies serialise");
+                match request.loan_slice_uninit(bytes.len()) {
+                    Ok(loan) => {
+                        if let Err(e) = loan.write_from_slice(&bytes).send() {
+                            tracing::warn!("control reply: {e:?}");
+                        }
+                    }
+                    Err(e) => tracing::warn!("control reply loan: {e:?}"),
+                }
+                if let ControlReply::Error(e) = &reply {
+                    tracing::info!("refused a control request: {}", e.message);
+                }
+            }
+            if id.has_event_from(&on_tick) {
+                // Frees the shared memory of clients that died; their sessions notice below.
+                node.try_cleanup_dead_nodes();
+                sessions.retain(|h| !h.is_finished());
+            }
+            if self.registry.stopping() {
+                CallbackProgression::Stop
+            } else {
+                CallbackProgression::Continue
+            }
+        });
+        for h in sessions {
+            let _ = h.join();
+        }
+        result.map(|_| ()).map_err(|e| iox("control waitset", e))
+    }
+}
+
+/// Starts a session's thread; the inner result says whether its channels were created.
+fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
+    let (tx, rx) = mpsc::channel();
+    let id = plan.entry.info.session;
+    let handle = std::thread::Builder::new()
+        .name(format!("iox2-session-{id}"))
+        .spawn(move || {
+            let result = run_session(&cfg, plan, &registry, &tx);
+            registry.remove(id);
+            match result {
+                Ok(why) => tracing::info!("session {id} ended: {why}"),
+                Err(e) => {
+                    let _ = tx.send(Err(e.clone()));
+                    tracing::warn!("session {id} failed: {e}");
+                }
+            }
+        })
+        .map_err(|e| e.to_string())?;
+    let r = rx.recv_timeout(Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
+    Ok((handle, r))
+}
+
+/// A session's services and ports.
+struct Channels {
+    frames: FrameService,
+    subscriber: iceoryx2::port::subscriber::Subscriber<Svc, [f32], FrameHeader>,
+    listener: iceoryx2::port::listener::Listener<Svc>,
+    publisher: iceoryx2::port::publisher::Publisher<Svc, [Contact], ContactsHeader>,
+    notifier: iceoryx2::port::notifier::Notifier<Svc>,
+    _events: (EventService, EventService, ContactsService),
+}
+
+impl Channels {
+    fn create(node: &Node<Svc>, plan: &Plan, observers: usize) -> Result<Self, ClientError> {
+        let info = &plan.entry.info;
+        let subs = 1 + observers;
+        let e = |what: &str| {
+            let what = what.to_owned();
+            move |err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("{what}: {err:?}"))
+        };
+        let fname = service_name(&info.frame)?;
+        let frames = node
+            .service_builder(&fname)
+            .publish_subscribe::<[f32]>()
+            .user_header::<FrameHeader>()
+            .max_publishers(1)
+            .max_subscribers(subs)
+            .subscriber_max_buffer_size(FRAME_BUFFER)
+            .subscriber_max_borrowed_samples(1)
+            .history_size(0)
+            .enable_safe_overflow(true)
+            .max_nodes(subs + 1)
+            .create()
+            .map_err(|x| e("creating the frame service")(&x))?;
+        let frame_events = node
+            .service_builder(&fname)
+            .event()
+            .max_notifiers(1)
+            .max_listeners(subs)
+            .max_nodes(subs + 1)
+            .notifier_dead_event(EVENT_PEER_DIED)
+            .create()
+            .map_err(|x| e("creating the frame event")(&x))?;
+        let cname = service_name(&info.contacts)?;
+        let contacts = node
+            .service_builder(&cname)
+            .publish_subscribe::<[Contact]>()
+            .user_header::<ContactsHeader>()
+            .max_publishers(1)
+            .max_subscribers(subs)
+            .subscriber_max_buffer_size(CONTACTS_BUFFER)
+            .subscriber_max_borrowed_samples(CONTACTS_BORROWED)
+            .history_size(0)
+            .enable_safe_overflow(true)
+            .max_nodes(subs + 1)
+            .create()
+            .map_err(|x| e("creating the contacts service")(&x))?;
+        let contact_events = node
+            .service_builder(&cname)
+            .event()
+            .max_notifiers(1)
+            .max_listeners(subs)
+            .max_nodes(subs + 1)
+            .notifier_dead_event(EVENT_PEER_DIED)
+            .create()
+            .map_err(|x| e("creating the contacts event")(&x))?;
+        let subscriber = frames.subscriber_builder().buffer_size(FRAME_BUFFER).create().map_err(|x| e("subscribing to frames")(&x))?;
+        let listener = frame_events.listener_builder().create().map_err(|x| e("listening for frames")(&x))?;
+        let publisher = contacts
+            .publisher_builder()
+            .initial_max_slice_len(info.max_contacts as usize)
+            .allocation_strategy(AllocationStrategy::Static)
+            .max_loaned_samples(1)
+            .create()
+            .map_err(|x| e("creating the contacts publisher")(&x))?;
+        let notifier = contact_events.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|x| e("creating the contacts notifier")(&x))?;
+        Ok(Self { frames, subscriber, listener, publisher, notifier, _events: (frame_events, contact_events, contacts) })
+    }
+
+    /// Answers the newest waiting frame, if any.
+    fn serve(&self, engine: &mut Engine) {
+        let received = Instant::now();
+        let mut newest = None;
+        loop {
+            match self.subscriber.receive() {
+                Ok(Some(s)) => newest = Some(s),
+                Ok(None) => break,
+                Err(e) => {
+                    tracing::warn!("session {}: receiving a frame: {e:?}", engine.id);
+                    break;
+                }
+            }
+        }
+        let Some(sample) = newest else { return };
+        // The frame is read where the client wrote it: no copy.
+        let (reply, contacts) = engine.run(Ok((*sample.user_header(), sample.payload())));
+        match self.publisher.loan_slice_uninit(contacts.len()) {
+            Ok(loan) => {
+                let mut out = loan.write_from_slice(contacts);
+                *out.user_header_mut() = reply;
+                if let Err(e) = out.send() {
+                    tracing::warn!("session {}: sending contacts: {e:?}", engine.id);
+                }
+                if let Err(e) = self.notifier.notify() {
+                    tracing::warn!("session {}: notifying: {e:?}", engine.id);
+                }
+            }
+            Err(e) => tracing::warn!("session {}: no shared memory for the reply: {e:?}", engine.id),
+        }
+        drop(sample);
+        engine.record(&reply, received);
+    }
+
+    fn client_present(&self) -> bool {
+        self.frames.dynamic_config().number_of_publishers() > 0
+    }
+}
+
+fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
+    let id = plan.entry.info.session;
+    let node = node(cfg, &format!("lumen-session-{id}")).map_err(|e| e.to_string())?;
+    let channels = Channels::create(&node, &plan, registry.limits.max_observers).map_err(|e| e.to_string())?;
+    let mut engine = Engine::new(plan.entry.clone(), plan.echo).map_err(|e| e.to_string())?;
+    let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;
+    let on_frame = waitset.attach_notification(&channels.listener).map_err(|e| iox("attaching", e))?;
+    let on_tick = waitset.attach_interval(TICK).map_err(|e| iox("attaching", e))?;
+    let _ = ready.send(Ok(()));
+    let opened = Instant::now();
+    let mut connected = false;
+    let mut why = "daemon stopping";
+    waitset
+        .wait_and_process(|wake| {
+            let mut peer_died = false;
+            if wake.has_event_from(&on_frame) {
+                let _ = channels.listener.try_wait(|e| peer_died |= e.id == EVENT_PEER_DIED);
+                channels.serve(&mut engine);
+            }
+            if peer_died || wake.has_event_from(&on_tick) {
+                engine.tick();
+                if channels.client_present() {
+                    connected = true;
+                } else if connected {
+                    why = "its client left";
+                    return CallbackProgression::Stop;
+                } else if opened.elapsed() > CONNECT_GRACE {
+                    why = "no client attached in time";
+                    return CallbackProgression::Stop;
+                }
+                if plan.entry.close.load(std::sync::atomic::Ordering::SeqCst) {
+                    why = "closed on request";
+                    return CallbackProgression::Stop;
+                }
+                if registry.stopping() {
+                    return CallbackProgression::Stop;
+                }
+            }
+            CallbackProgression::Continue
+        })
+        .map_err(|e| iox("session waitset", e))?;
+    Ok(why)
+}

@@ -1,0 +1,127 @@
+//! The daemon's sessions, shared by both transports and `lumen status`.
+
+use crate::config::Limits;
+use crate::stats::Stats;
+use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+/// One open session as the registry sees it.
+#[derive(Debug)]
+pub struct Entry {
+    pub info: SessionInfo,
+    pub client: String,
+    pub opened: Instant,
+    /// Set to ask the session's thread to end.
+    pub close: AtomicBool,
+    pub stats: Mutex<Stats>,
+}
+
+/// All sessions, the id counter and the shutdown flag.
+#[derive(Debug)]
+pub struct Registry {
+    pub limits: Limits,
+    started: Instant,
+    base: u64,
+    next: AtomicU64,
+    sessions: Mutex<BTreeMap<u64, Arc<Entry>>>,
+    shutdown: AtomicBool,
+}
+
+impl Registry {
+    /// An empty registry. Ids start from the wall clock so that a restarted daemon never hands
+    /// out an id whose channels an old client may still hold.
+    pub fn new(limits: Limits) -> Self {
+        let secs = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs());
+        // 32 bits of seconds, 20 of counter: below 2^53, safe in JSON doubles.
+        let base = (secs & 0xFFFF_FFFF) << 20;
+        Self { limits, started: Instant::now(), base, next: AtomicU64::new(1), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
+    }
+
+    /// A fresh session id.
+    pub fn next_id(&self) -> u64 {
+        self.base + (self.next.fetch_add(1, Ordering::Relaxed) & 0xF_FFFF)
+    }
+
+    /// Whether another session may open.
+    pub fn has_room(&self) -> bool {
+        self.sessions.lock().expect("registry lock").len() < self.limits.max_sessions
+    }
+
+    /// Adds a session; `None` if the daemon is full.
+    pub fn insert(&self, info: SessionInfo, client: String) -> Option<Arc<Entry>> {
+        let mut s = self.sessions.lock().expect("registry lock");
+        if s.len() >= self.limits.max_sessions {
+            return None;
+        }
+        let e = Arc::new(Entry { info, client, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
+        s.insert(e.info.session, e.clone());
+        Some(e)
+    }
+
+    /// Forgets a session (its thread has ended).
+    pub fn remove(&self, id: u64) {
+        self.sessions.lock().expect("registry lock").remove(&id);
+    }
+
+    /// The session `id`, if open.
+    pub fn get(&self, id: u64) -> Option<Arc<Entry>> {
+        self.sessions.lock().expect("registry lock").get(&id).cloned()
+    }
+
+    /// Number of open sessions.
+    pub fn len(&self) -> usize {
+        self.sessions.lock().expect("registry lock").len()
+    }
+
+    /// Whether no session is open.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Asks every thread to end.
+    pub fn shut_down(&self) {
+        self.shutdown.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether the daemon is stopping.
+    pub fn stopping(&self) -> bool {
+        self.shutdown.load(Ordering::SeqCst)
+    }
+
+    /// The status report.
+    pub fn status(&self) -> StatusReport {
+        let now = Instant::now();
+        let sessions = self
+            .sessions
+            .lock()
+            .expect("registry lock")
+            .values()
+            .map(|e| {
+                let s = e.stats.lock().expect("stats lock");
+                SessionStatus {
+                    session: e.info.session,
+                    transport: e.info.transport,
+                    client: e.client.clone(),
+                    age_s: now.duration_since(e.opened).as_secs_f64(),
+                    frames: s.frames,
+                    bad_frames: s.bad_frames,
+                    skipped: s.skipped,
+                    fps: s.fps,
+                    detect: s.detect.percentiles(),
+                    service: s.service.percentiles(),
+                    contacts_last: s.contacts_last,
+                    contacts_mean: s.contacts_mean(),
+                }
+            })
+            .collect();
+        StatusReport { pid: std::process::id(), version: env!("CARGO_PKG_VERSION").into(), uptime_s: self.started.elapsed().as_secs_f64(), sessions }
+    }
+
+    /// Sessions on `transport`.
+    pub fn count(&self, transport: Transport) -> usize {
+        self.sessions.lock().expect("registry lock").values().filter(|e| e.info.transport == transport).count()
+    }
+}

@@ -1,0 +1,160 @@
+//! The daemon's zenoh side: a queryable for control requests, and one thread per session that
+//! blocks on its frame subscriber (newest frame wins), detects, and publishes the reply. A
+//! session lives while its client's liveliness token does.
+
+use crate::control::{self, Plan};
+use crate::engine::Engine;
+use crate::registry::Registry;
+use lumen_client::remote::config;
+use lumen_proto::session::{ControlReply, Transport, CONTROL, DAEMON_ALIVE};
+use lumen_proto::wire::{decode_frame, encode_contacts, CONTACTS_HEADER_BYTES, CONTACT_BYTES};
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use zenoh::handlers::RingChannel;
+use zenoh::qos::CongestionControl;
+use zenoh::sample::SampleKind;
+use zenoh::Wait;
+
+use crate::local::{CONNECT_GRACE, TICK};
+
+/// The zenoh transport of a running daemon.
+pub struct Remote {
+    pub mode: String,
+    pub listen: Vec<String>,
+    pub connect: Vec<String>,
+    pub registry: Arc<Registry>,
+}
+
+impl Remote {
+    /// Opens the zenoh session and starts the control thread; returns once it serves.
+    pub fn start(self) -> Result<JoinHandle<()>, String> {
+        let cfg = config(&self.mode, &self.listen, &self.connect).map_err(|e| e.to_string())?;
+        let z = zenoh::open(cfg).wait().map_err(|e| format!("zenoh: cannot open a session listening on {:?}: {e}", self.listen))?;
+        let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| format!("zenoh liveliness: {e}"))?;
+        let queryable = z.declare_queryable(CONTROL).wait().map_err(|e| format!("zenoh queryable {CONTROL}: {e}"))?;
+        std::thread::Builder::new()
+            .name("zenoh-control".into())
+            .spawn(move || {
+                let mut sessions: Vec<JoinHandle<()>> = Vec::new();
+                while !self.registry.stopping() {
+                    let query = match queryable.recv_timeout(TICK) {
+                        Ok(Some(q)) => q,
+                        Ok(None) => {
+                            sessions.retain(|h| !h.is_finished());
+                            continue;
+                        }
+                        Err(e) => {
+                            tracing::error!("zenoh control: {e}");
+                            break;
+                        }
+                    };
+                    let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
+                    let reply = match control::decode(&bytes) {
+                        Ok(req) => control::handle(&self.registry, Transport::Zenoh, req, |plan| {
+                            let (h, r) = start_session(z.clone(), plan, self.registry.clone())?;
+                            sessions.push(h);
+                            r
+                        }),
+                        Err(reply) => reply,
+                    };
+                    if let ControlReply::Error(e) = &reply {
+                        tracing::info!("refused a zenoh control request: {}", e.message);
+                    }
+                    let json = serde_json::to_vec(&reply).expect("replies serialise");
+                    if let Err(e) = query.reply(CONTROL, json).wait() {
+                        tracing::warn!("zenoh control reply: {e}");
+                    }
+                }
+                for h in sessions {
+                    let _ = h.join();
+                }
+                drop(token);
+                drop(queryable);
+                if let Err(e) = z.close().wait() {
+                    tracing::warn!("closing zenoh: {e}");
+                }
+            })
+            .map_err(|e| e.to_string())
+    }
+}
+
+fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
+    let (tx, rx) = mpsc::channel();
+    let id = plan.entry.info.session;
+    let handle = std::thread::Builder::new()
+        .name(format!("zenoh-session-{id}"))
+        .spawn(move || {
+            let result = run_session(&z, plan, &registry, &tx);
+            registry.remove(id);
+            match result {
+                Ok(why) => tracing::info!("session {id} ended: {why}"),
+                Err(e) => {
+                    let _ = tx.send(Err(e.clone()));
+                    tracing::warn!("session {id} failed: {e}");
+                }
+            }
+        })
+        .map_err(|e| e.to_string())?;
+    let r = rx.recv_timeout(Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
+    Ok((handle, r))
+}
+
+fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
+    let info = plan.entry.info.clone();
+    let frames = z.declare_subscriber(info.frame.clone()).with(RingChannel::new(1)).wait().map_err(|e| format!("subscribing to {}: {e}", info.frame))?;
+    let publisher = z
+        .declare_publisher(info.contacts.clone())
+        .congestion_control(CongestionControl::Block)
+        .express(true)
+        .wait()
+        .map_err(|e| format!("publishing on {}: {e}", info.contacts))?;
+    let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| format!("watching {}: {e}", info.alive))?;
+    let mut engine = Engine::new(plan.entry.clone(), plan.echo).map_err(|e| e.to_string())?;
+    let mut state: Vec<f32> = Vec::with_capacity(engine.layout.floats);
+    let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
+    let _ = ready.send(Ok(()));
+    let opened = Instant::now();
+    let mut connected = false;
+    let mut last_tick = Instant::now();
+    loop {
+        match frames.recv_timeout(TICK) {
+            Ok(Some(sample)) => {
+                let received = Instant::now();
+                let bytes = sample.payload().to_bytes();
+                // Anything at all may arrive on the key: decoding checks every length first.
+                let decoded = decode_frame(&bytes, engine.id, &engine.layout, &mut state);
+                let (mut reply, contacts) = engine.run(decoded.map(|h| (h, state.as_slice())));
+                // zenoh takes ownership of what it sends: one buffer per reply.
+                let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));
+                encode_contacts(&mut reply, contacts, &mut out);
+                if let Err(e) = publisher.put(out).wait() {
+                    tracing::warn!("session {}: publishing contacts: {e}", engine.id);
+                }
+                engine.record(&reply, received);
+            }
+            Ok(None) => {}
+            Err(e) => return Err(format!("frame subscriber: {e}")),
+        }
+        if last_tick.elapsed() >= TICK {
+            last_tick = Instant::now();
+            engine.tick();
+            while let Ok(Some(s)) = alive.try_recv() {
+                match s.kind() {
+                    SampleKind::Put => connected = true,
+                    SampleKind::Delete => return Ok("its client left"),
+                }
+            }
+            if !connected && opened.elapsed() > CONNECT_GRACE {
+                return Ok("no client attached in time");
+            }
+            if plan.entry.close.load(std::sync::atomic::Ordering::SeqCst) {
+                return Ok("closed on request");
+            }
+            if registry.stopping() {
+                return Ok("daemon stopping");
+            }
+        }
+    }
+}

@@ -1,0 +1,282 @@
+//! End-to-end over iceoryx2: the real `lumen` daemon as a child process, clients in this process
+//! or in child processes (this test binary re-run in a client role). Each test has its own
+//! iceoryx2 prefix.
+
+use lumen_client::{Client, Error, LocalOptions, Observed};
+use lumen_detect::Detector;
+use lumen_e2e::{eventually, same_bits, shm_files, unique_prefix, ChildProcess, Daemon, TestScene};
+use lumen_proto::wire::Status;
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
+const WAIT: Duration = Duration::from_secs(3);
+
+fn client(prefix: &str) -> Client {
+    Client::local_with(LocalOptions { prefix: Some(prefix.into()), name: Some("e2e".into()) }).expect("local client")
+}
+
+fn scene() -> TestScene {
+    TestScene::new(40, 16, 24)
+}
+
+/// This test binary re-run as a client process: `LUMEN_E2E_ROLE=loop` opens a session and
+/// submits frames forever, printing `session ID` once and `ok FRAME CONTACTS` per reply, until
+/// its stdin closes.
+#[test]
+fn child_role() {
+    let Ok(role) = std::env::var("LUMEN_E2E_ROLE") else { return };
+    assert_eq!(role, "loop");
+    let scene = scene();
+    let client = Client::local().expect("client");
+    let mut s = client.open_session(&scene.spec).expect("open");
+    println!("session {}", s.id());
+    let stdin_closed = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stdin_closed.clone();
+    std::thread::spawn(move || {
+        let mut sink = String::new();
+        while std::io::stdin().read_line(&mut sink).map(|n| n > 0).unwrap_or(false) {}
+        flag.store(true, std::sync::atomic::Ordering::SeqCst);
+    });
+    let mut k = 0u64;
+    while !stdin_closed.load(std::sync::atomic::Ordering::SeqCst) {
+        let state = scene.state(k);
+        if s.submit_state(&state).is_ok() {
+            if let Ok(r) = s.contacts(Duration::from_millis(500)) {
+                println!("ok {} {} {}", r.frame(), r.contacts().len(), s.id());
+            }
+        } else {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        k += 1;
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// Files the prefix left in /dev/shm, except iceoryx2's per-prefix node counter (16 bytes,
+/// persistent by design: reused by the next start, never multiplied), which is then removed.
+fn leftovers(prefix: &str) -> Vec<String> {
+    let files: Vec<String> = shm_files(prefix).into_iter().filter(|f| !f.ends_with(".global_mgmt")).collect();
+    if files.is_empty() {
+        assert!(shm_files(prefix).len() <= 1);
+        let cfg = lumen_client::local::config(Some(prefix)).unwrap();
+        // SAFETY: every process of this prefix has ended.
+        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<iceoryx2::service::ipc::Service>(&cfg) };
+    }
+    files
+}
+
+fn spawn_client(prefix: &str) -> ChildProcess {
+    let mut cmd = Command::new(std::env::current_exe().unwrap());
+    cmd.args(["--exact", "child_role", "--nocapture", "--test-threads", "1"]).env("LUMEN_E2E_ROLE", "loop").env("LUMEN_IOX2_PREFIX", prefix);
+    ChildProcess::spawn(cmd)
+}
+
+#[test]
+fn round_trip_matches_the_in_process_detector_bit_for_bit() {
+    let prefix = unique_prefix("rt");
+    let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let client = client(&prefix);
+    let mut session = client.open_session(&scene.spec).unwrap();
+    assert_eq!(session.layout().floats, 40 * 17 * 3 + 24 * 3);
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut total = 0;
+    for k in 0..40 {
+        let state = scene.state(k);
+        // Written in place into shared memory.
+        session.frame().unwrap().copy_from_slice(&state);
+        let n = session.submit().unwrap();
+        assert_eq!(n, k);
+        let reply = session.contacts(WAIT).unwrap();
+        assert_eq!(reply.frame(), k);
+        assert_eq!(reply.result(), Ok(()));
+        let expected = reference.detect(&state).unwrap();
+        assert_eq!(reply.contacts().len(), expected.len(), "frame {k}");
+        assert!(same_bits(reply.contacts(), expected), "frame {k} differs");
+        total += expected.len();
+    }
+    assert!(total > 40, "the scene should produce contacts: {total}");
+    let status = client.status().unwrap();
+    assert_eq!(status.sessions.len(), 1);
+    assert_eq!(status.sessions[0].frames, 40);
+    assert!(status.sessions[0].detect.p50_us > 0.0);
+    drop(session);
+    drop(client);
+    assert_eq!(daemon.terminate().map(|s| s.success()), Some(true), "SIGTERM ends the daemon cleanly");
+    assert!(eventually(WAIT, || leftovers(&prefix).is_empty()), "leftovers: {:?}", shm_files(&prefix));
+    assert!(shm_files(&prefix).is_empty());
+}
+
+#[test]
+fn invalid_specs_are_refused_with_a_reason() {
+    let prefix = unique_prefix("bad");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &["--max-sessions", "1"]);
+    let client = client(&prefix);
+    let mut spec = scene().spec;
+    spec.pairs[0].b = "stomach".into();
+    let e = client.open_session(&spec).err().expect("refused");
+    assert_eq!(e.code(), Some(lumen_proto::session::ErrorCode::Spec));
+    assert!(e.to_string().contains("stomach"), "{e}");
+    let _one = client.open_session(&scene().spec).unwrap();
+    let e = client.open_session(&scene().spec).err().expect("full");
+    assert_eq!(e.code(), Some(lumen_proto::session::ErrorCode::Busy));
+    let e = Client::local_with(LocalOptions { prefix: Some(unique_prefix("none")), name: None }).unwrap().open_session(&scene().spec).err().unwrap();
+    assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
+}
+
+#[test]
+fn two_sessions_and_an_observer() {
+    let prefix = unique_prefix("obs");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let client = client(&prefix);
+    let mut a = client.open_session(&scene.spec).unwrap();
+    let mut b = client.open_session(&scene.spec).unwrap();
+    assert_ne!(a.id(), b.id());
+    let watcher = self::client(&prefix);
+    let mut obs = watcher.observe(a.id()).unwrap();
+    assert_eq!(obs.info().session, a.id());
+    let (mut frames_seen, mut replies_seen) = (Vec::new(), Vec::new());
+    for k in 0..20 {
+        a.submit_state(&scene.state(k)).unwrap();
+        b.submit_state(&scene.state(k + 100)).unwrap();
+        let ra = a.contacts(WAIT).unwrap().contacts().to_vec();
+        let rb = b.contacts(WAIT).unwrap();
+        assert_eq!(rb.frame(), k);
+        // The observer sees this frame and this reply (it never sees b's).
+        let mut got = (false, false);
+        while got != (true, true) {
+            match obs.next(WAIT).unwrap() {
+                Observed::Frame { header, state } => {
+                    assert_eq!(header.session, a.id());
+                    if header.frame == k {
+                        assert_eq!(state, &scene.state(k)[..]);
+                        got.0 = true;
+                    }
+                    frames_seen.push(header.frame);
+                }
+                Observed::Contacts(r) => {
+                    assert_eq!(r.header().session, a.id());
+                    if r.frame() == k {
+                        assert!(same_bits(r.contacts(), &ra));
+                        got.1 = true;
+                    }
+                    replies_seen.push(r.frame());
+                }
+            }
+        }
+    }
+    assert!(frames_seen.contains(&19) && replies_seen.contains(&19));
+    // The observer's session ends when its client leaves.
+    drop(a);
+    assert!(matches!(obs.next(WAIT), Err(Error::SessionEnded(_)) | Ok(_)));
+}
+
+#[test]
+fn a_bad_frame_among_good_ones_gets_an_error_and_the_session_goes_on() {
+    let prefix = unique_prefix("badf");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let client = client(&prefix);
+    let mut s = client.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    for k in 0..12u64 {
+        let mut state = scene.state(k);
+        let expect_ok = match k {
+            3 => {
+                state[(3 * 17 + 1 + 5) * 3 + 1] = f32::NAN; // tube ring 3, spoke 5, y
+                false
+            }
+            6 => {
+                state[40 * 17 * 3 + 2 * 3] = f32::INFINITY; // rod point 2, x
+                false
+            }
+            _ => true,
+        };
+        s.frame().unwrap().copy_from_slice(&state);
+        match k {
+            8 => s.submit_with(|h| h.version = 99).unwrap(),
+            9 => s.submit_with(|h| h.bodies = 3).unwrap(),
+            10 => s.submit_with(|h| h.session += 1).unwrap(),
+            _ => s.submit().unwrap(),
+        };
+        let r = s.contacts(WAIT).unwrap();
+        assert_eq!(r.frame(), k);
+        let h = *r.header();
+        match k {
+            3 => {
+                assert_eq!(r.result().unwrap_err().0, Status::NonFinite);
+                assert_eq!((h.error_body, h.error_index, h.error_spoke), (0, 3, 5));
+                assert!(h.message().contains("ring 3"), "{}", h.message());
+            }
+            6 => {
+                assert_eq!(r.result().unwrap_err().0, Status::NonFinite);
+                assert_eq!((h.error_body, h.error_index, h.error_spoke), (1, 2, u32::MAX));
+            }
+            8 => assert_eq!(r.result().unwrap_err().0, Status::BadVersion),
+            9 => assert_eq!(r.result().unwrap_err().0, Status::BadCounts),
+            10 => assert_eq!(r.result().unwrap_err().0, Status::BadSession),
+            _ => {
+                assert!(expect_ok);
+                assert_eq!(r.result(), Ok(()));
+                assert!(same_bits(r.contacts(), reference.detect(&state).unwrap()), "frame {k}");
+            }
+        }
+    }
+    let st = client.status().unwrap();
+    assert_eq!((st.sessions[0].frames, st.sessions[0].bad_frames), (12, 5));
+}
+
+#[test]
+fn a_killed_client_is_noticed_within_a_second_and_others_go_on() {
+    let prefix = unique_prefix("k9c");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let mut victim = spawn_client(&prefix);
+    let mut survivor = spawn_client(&prefix);
+    let victim_id: u64 = victim.line_starting("session ", Duration::from_secs(20)).expect("victim opened").split(' ').nth(1).unwrap().parse().unwrap();
+    survivor.line_starting("session ", Duration::from_secs(20)).expect("survivor opened");
+    assert!(victim.line_starting("ok ", WAIT).is_some() && survivor.line_starting("ok ", WAIT).is_some());
+    let status = client(&prefix);
+    assert_eq!(status.status().unwrap().sessions.len(), 2);
+    victim.kill9();
+    let killed = Instant::now();
+    assert!(
+        eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.iter().all(|x| x.session != victim_id)).unwrap_or(false)),
+        "the dead client's session was not freed"
+    );
+    let noticed = killed.elapsed();
+    assert!(noticed < Duration::from_millis(1500), "noticed after {noticed:?}");
+    // The survivor keeps getting replies.
+    for _ in 0..10 {
+        assert!(survivor.line_starting("ok ", WAIT).is_some());
+    }
+    survivor.close_stdin();
+    assert!(survivor.wait_exit(Duration::from_secs(10)).is_some());
+    // The victim's shared memory is cleaned up by the daemon.
+    assert!(eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.is_empty()).unwrap_or(false)));
+}
+
+#[test]
+fn daemon_killed_and_restarted_clients_resume_and_nothing_is_left() {
+    let prefix = unique_prefix("k9d");
+    let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let mut client_proc = spawn_client(&prefix);
+    let first: u64 = client_proc.line_starting("session ", Duration::from_secs(20)).expect("opened").split(' ').nth(1).unwrap().parse().unwrap();
+    assert!(client_proc.line_starting("ok ", WAIT).is_some());
+    let mut daemon = daemon;
+    daemon.process.kill9();
+    std::thread::sleep(Duration::from_millis(300));
+    let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    // The client reopens by itself: replies come again, under a new session id.
+    let resumed = eventually(Duration::from_secs(10), || {
+        client_proc.line_starting("ok ", Duration::from_millis(200)).is_some_and(|l| l.split(' ').nth(3).is_some_and(|id| id.parse::<u64>().unwrap() != first))
+    });
+    assert!(resumed, "the client did not resume");
+    client_proc.close_stdin();
+    assert!(client_proc.wait_exit(Duration::from_secs(10)).is_some_and(|s| s.success()));
+    assert_eq!(daemon.terminate().map(|s| s.success()), Some(true));
+    assert!(eventually(WAIT, || leftovers(&prefix).is_empty()), "leftovers: {:?}", shm_files(&prefix));
+    assert!(shm_files(&prefix).is_empty());
+}
