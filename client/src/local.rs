@@ -332,10 +332,11 @@ impl LocalObserver {
             // Consume the wake-ups first: a sample sent after the look below brings a new one.
             self.frame_listener.try_wait(|_| {}).map_err(|e| Error::iox("consuming frame events", e))?;
             self.contacts_listener.try_wait(|_| {}).map_err(|e| Error::iox("consuming contacts events", e))?;
-            // Drain the frame queue to its newest sample.
+            // Drain the frame queue to its newest sample (releasing the one held since last time).
+            self.frame_sample = None;
             let mut newest = None;
             while let Some(s) = self.frames.receive().map_err(|e| Error::iox("receiving a frame", e))? {
-                newest = Some(s);
+                newest = Some(s); // the previous one is released here, after the receive
             }
             let reply = if newest.is_none() || !self.prefer_frame { self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? } else { None };
             if let Some(r) = reply {

@@ -9,6 +9,8 @@ use std::sync::Arc;
 /// iceoryx2 buffers per session (see `local`): frames are kept one deep per subscriber (newest
 /// wins), replies four deep.
 pub const FRAME_BUFFER: usize = 1;
+/// Frames one subscriber may hold at once: the newest, and the next while draining to it.
+pub const FRAME_BORROWED: usize = 2;
 pub const CONTACTS_BUFFER: usize = 4;
 pub const CONTACTS_BORROWED: usize = 2;
 
@@ -37,7 +39,7 @@ pub fn contact_bound(spec: &SceneSpec) -> usize {
 /// daemon's contacts segment, each sized for every subscriber's buffers plus one loan.
 pub fn session_bytes(floats: usize, max_contacts: usize, observers: usize) -> usize {
     let subs = 1 + observers;
-    let frames = subs * (FRAME_BUFFER + 1) + 1;
+    let frames = subs * (FRAME_BUFFER + FRAME_BORROWED) + 1;
     let replies = subs * (CONTACTS_BUFFER + CONTACTS_BORROWED) + 1;
     frames * (FRAME_HEADER_BYTES + 4 * floats) + replies * (CONTACTS_HEADER_BYTES + CONTACT_BYTES * max_contacts)
 }

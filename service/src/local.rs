@@ -2,7 +2,7 @@
 //! and one thread per session that sleeps in a WaitSet until the client's frame event, reads the
 //! frame in place from shared memory, detects, and writes the reply into a loaned sample.
 
-use crate::control::{self, Plan, CONTACTS_BORROWED, CONTACTS_BUFFER, FRAME_BUFFER};
+use crate::control::{self, Plan, CONTACTS_BORROWED, CONTACTS_BUFFER, FRAME_BORROWED, FRAME_BUFFER};
 use crate::engine::Engine;
 use crate::registry::Registry;
 use iceoryx2::prelude::*;
@@ -181,7 +181,7 @@ impl Channels {
             .max_publishers(1)
             .max_subscribers(subs)
             .subscriber_max_buffer_size(FRAME_BUFFER)
-            .subscriber_max_borrowed_samples(1)
+            .subscriber_max_borrowed_samples(FRAME_BORROWED)
             .history_size(0)
             .enable_safe_overflow(true)
             .max_nodes(subs + 1)

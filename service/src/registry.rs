@@ -31,18 +31,19 @@ pub struct Registry {
 }
 
 impl Registry {
-    /// An empty registry. Ids start from the wall clock so that a restarted daemon never hands
-    /// out an id whose channels an old client may still hold.
+    /// An empty registry. Ids start from a random point so that a restarted daemon (even
+    /// within the same second) never hands out an id whose channels an old client may hold.
     pub fn new(limits: Limits) -> Self {
-        let secs = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs());
-        // 32 bits of seconds, 20 of counter: below 2^53, safe in JSON doubles.
-        let base = (secs & 0xFFFF_FFFF) << 20;
-        Self { limits, started: Instant::now(), base, next: AtomicU64::new(1), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
+        use std::hash::{BuildHasher, Hasher};
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher(); // OS-seeded
+        h.write_u128(SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos()));
+        h.write_u32(std::process::id());
+        Self { limits, started: Instant::now(), base: h.finish(), next: AtomicU64::new(1), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
     }
 
-    /// A fresh session id.
+    /// A fresh session id: below 2^53, so JSON doubles hold it exactly.
     pub fn next_id(&self) -> u64 {
-        self.base + (self.next.fetch_add(1, Ordering::Relaxed) & 0xF_FFFF)
+        self.base.wrapping_add(self.next.fetch_add(1, Ordering::Relaxed)) & ((1 << 53) - 1)
     }
 
     /// Whether another session may open.
@@ -123,5 +124,21 @@ impl Registry {
     /// Sessions on `transport`.
     pub fn count(&self, transport: Transport) -> usize {
         self.sessions.lock().expect("registry lock").values().filter(|e| e.info.transport == transport).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_restarted_daemon_never_reuses_ids() {
+        // Two daemons started in the same instant (a kill -9 and restart) must not collide.
+        let ids: std::collections::HashSet<u64> = (0..100).map(|_| Registry::new(Limits::default()).next_id()).collect();
+        assert_eq!(ids.len(), 100);
+        let r = Registry::new(Limits::default());
+        let (a, b) = (r.next_id(), r.next_id());
+        assert_ne!(a, b);
+        assert!(a < 1 << 53 && b < 1 << 53);
     }
 }
