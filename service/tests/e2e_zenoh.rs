@@ -1,0 +1,137 @@
+//! End-to-end over zenoh (TCP loopback): the real daemon as a child process with its own port
+//! and iceoryx2 prefix; clients in this process.
+
+use lumen_client::{Client, Observed};
+use lumen_detect::Detector;
+use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
+use lumen_proto::wire::{encode_frame, FrameHeader, Status, FRAME_HEADER_BYTES};
+use std::path::Path;
+use std::time::Duration;
+use zenoh::Wait;
+
+const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
+const WAIT: Duration = Duration::from_secs(3);
+
+fn daemon(tag: &str) -> Daemon {
+    Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), &[])
+}
+
+#[test]
+fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
+    let d = daemon("zrt");
+    let scene = TestScene::new(40, 16, 24);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    assert_eq!(s.info().transport, lumen_client::Transport::Zenoh);
+    let watcher = Client::zenoh(&d.endpoint()).unwrap();
+    let mut obs = watcher.observe(s.id()).unwrap();
+    std::thread::sleep(Duration::from_millis(200)); // let the observer's subscription propagate
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut total = 0;
+    for k in 0..30 {
+        let state = scene.state(k);
+        s.frame().unwrap().copy_from_slice(&state);
+        assert_eq!(s.submit().unwrap(), k);
+        let r = s.contacts(WAIT).unwrap();
+        assert_eq!((r.frame(), r.result()), (k, Ok(())));
+        let expected = reference.detect(&state).unwrap();
+        assert!(same_bits(r.contacts(), expected), "frame {k}");
+        total += expected.len();
+    }
+    assert!(total > 30);
+    // The observer saw frames and replies of this session.
+    let (mut frames, mut replies) = (0, 0);
+    while let Ok(o) = obs.next(Duration::from_millis(300)) {
+        match o {
+            Observed::Frame { header, state } => {
+                assert_eq!(state, &scene.state(header.frame)[..]);
+                frames += 1;
+            }
+            Observed::Contacts(r) => {
+                assert_eq!(r.header().session, s.id());
+                replies += 1;
+            }
+        }
+    }
+    assert!(frames > 0 && replies > 0, "observer saw {frames} frames and {replies} replies");
+    let st = client.status().unwrap();
+    assert_eq!(st.sessions.len(), 1);
+    assert_eq!(st.sessions[0].frames, 30);
+    drop(s);
+    // The session ends when the client's liveliness token goes away.
+    assert!(lumen_e2e::eventually(WAIT, || client.status().map(|s| s.sessions.is_empty()).unwrap_or(false)));
+    assert_eq!(d.terminate().map(|s| s.success()), Some(true));
+}
+
+#[test]
+fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
+    let d = daemon("zfz");
+    let scene = TestScene::new(30, 8, 16);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut victim = client.open_session(&scene.spec).unwrap();
+    let mut other = client.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    let raw = zenoh::open(lumen_client::remote::config("client", &[], &[d.endpoint()]).unwrap()).wait().unwrap();
+    let key = victim.info().frame.clone();
+    let floats = victim.layout().floats;
+    let mut rng = fastrand::Rng::with_seed(4);
+    let good = scene.state(0);
+    let mut statuses = std::collections::HashMap::new();
+    for i in 0..150u64 {
+        let payload: Vec<u8> = match i % 6 {
+            0 => (0..rng.usize(0..FRAME_HEADER_BYTES)).map(|_| rng.u8(..)).collect(),
+            1 => (0..rng.usize(0..200_000)).map(|_| rng.u8(..)).collect(),
+            2 => {
+                // A valid header claiming far more floats than it carries.
+                let mut v = Vec::new();
+                encode_frame(&FrameHeader::new(victim.id(), i, 0, u32::MAX as usize, 2), &good[..10], &mut v);
+                v
+            }
+            3 => {
+                // The right size, with a NaN somewhere.
+                let mut st = good.clone();
+                st[rng.usize(0..floats)] = f32::NAN;
+                let mut v = Vec::new();
+                encode_frame(&FrameHeader::new(victim.id(), i, 0, floats, 2), &st, &mut v);
+                v
+            }
+            4 => {
+                // A good frame with random header bytes flipped (not the session or frame).
+                let mut v = Vec::new();
+                encode_frame(&FrameHeader::new(victim.id(), i, 0, floats, 2), &good, &mut v);
+                let at = [0usize, 4, 32, 36][rng.usize(0..4)];
+                v[at] ^= 1 + rng.u8(..254);
+                v
+            }
+            _ => {
+                let mut v = Vec::new();
+                encode_frame(&FrameHeader::new(victim.id(), i, 0, floats, 2), &good, &mut v);
+                v.truncate(v.len() - 1 - rng.usize(0..8));
+                v
+            }
+        };
+        raw.put(key.clone(), payload).wait().unwrap();
+        let r = victim.contacts(WAIT).expect("every fuzz frame gets a reply");
+        let status = r.result().expect_err("no random frame is valid").0;
+        *statuses.entry(status).or_insert(0) += 1;
+        // The other session is unaffected, frame by frame.
+        if i % 10 == 0 {
+            let state = scene.state(i);
+            other.submit_state(&state).unwrap();
+            let r = other.contacts(WAIT).unwrap();
+            assert_eq!(r.result(), Ok(()));
+            assert!(same_bits(r.contacts(), reference.detect(&state).unwrap()));
+        }
+    }
+    for s in [Status::Malformed, Status::BadLength, Status::NonFinite] {
+        assert!(statuses.get(&s).copied().unwrap_or(0) > 0, "{s:?} never seen: {statuses:?}");
+    }
+    // The victim's session still works.
+    victim.submit_state(&good).unwrap();
+    let r = victim.contacts(WAIT).unwrap();
+    assert_eq!(r.result(), Ok(()));
+    let st = client.status().unwrap();
+    let v = st.sessions.iter().find(|x| x.session == victim.id()).unwrap();
+    assert_eq!((v.frames, v.bad_frames), (151, 150));
+    assert_eq!(d.terminate().map(|s| s.success()), Some(true));
+}
