@@ -116,7 +116,10 @@ fn round_trip_matches_the_in_process_detector_bit_for_bit() {
 #[test]
 fn invalid_specs_are_refused_with_a_reason() {
     let prefix = unique_prefix("bad");
-    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &["--max-sessions", "1"]);
+    // Limits from a config file; the flag overrides the file's max_sessions.
+    let cfg = std::env::temp_dir().join(format!("{prefix}lumen.toml"));
+    std::fs::write(&cfg, "[limits]\nmax_sessions = 5\nmax_observers = 2\n").unwrap();
+    let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &["--config", cfg.to_str().unwrap(), "--max-sessions", "1"]);
     let client = client(&prefix);
     let mut spec = scene().spec;
     spec.pairs[0].b = "stomach".into();
@@ -126,8 +129,15 @@ fn invalid_specs_are_refused_with_a_reason() {
     let _one = client.open_session(&scene().spec).unwrap();
     let e = client.open_session(&scene().spec).err().expect("full");
     assert_eq!(e.code(), Some(lumen_proto::session::ErrorCode::Busy));
+    assert_eq!(client.describe(_one.id()).unwrap().max_observers, 2);
     let e = Client::local_with(LocalOptions { prefix: Some(unique_prefix("none")), name: None }).unwrap().open_session(&scene().spec).err().unwrap();
     assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
+    drop(_one);
+    // SIGINT stops it cleanly too.
+    let mut daemon = daemon;
+    daemon.process.signal(libc::SIGINT);
+    assert!(daemon.process.wait_exit(WAIT).is_some_and(|s| s.success()));
+    let _ = std::fs::remove_file(cfg);
 }
 
 #[test]
@@ -139,6 +149,17 @@ fn two_sessions_and_an_observer() {
     let mut a = client.open_session(&scene.spec).unwrap();
     let mut b = client.open_session(&scene.spec).unwrap();
     assert_ne!(a.id(), b.id());
+    // `lumen status` (the CLI, another process) lists both.
+    let out = Command::new(LUMEN).args(["status", "--prefix", &prefix, "--json"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: lumen_proto::session::StatusReport = serde_json::from_slice(&out.stdout).unwrap();
+    let mut ids: Vec<u64> = report.sessions.iter().map(|s| s.session).collect();
+    ids.sort();
+    let mut want = vec![a.id(), b.id()];
+    want.sort();
+    assert_eq!(ids, want);
+    let table = Command::new(LUMEN).args(["status", "--prefix", &prefix]).output().unwrap();
+    assert!(String::from_utf8_lossy(&table.stdout).contains(&a.id().to_string()));
     let watcher = self::client(&prefix);
     let mut obs = watcher.observe(a.id()).unwrap();
     assert_eq!(obs.info().session, a.id());
