@@ -42,28 +42,42 @@ impl Engine {
         };
         let mut reply = ContactsHeader::reply_to(&header);
         reply.skipped = self.skipped(&header);
-        let Some(detector) = self.detector.as_mut() else { return (reply, &[]) };
+        if self.detector.is_none() {
+            return (reply, &[]);
+        }
+        // A pipeline panic on some finite but absurd input must not end the session (nor the
+        // daemon): it is answered as an internal error and the detector starts afresh.
         let t0 = Instant::now();
-        let result = detector.detect(state);
+        let detector = self.detector.as_mut().expect("checked");
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| detector.detect(state).map(|c| c.len())));
         reply.detect_ns = t0.elapsed().as_nanos().min(u32::MAX as u128) as u32;
-        match result {
-            Ok(contacts) => {
-                let n = contacts.len().min(self.max_contacts);
-                if n < contacts.len() {
+        match outcome {
+            Ok(Ok(found)) => {
+                let contacts = self.detector.as_ref().expect("present").contacts();
+                let n = found.min(self.max_contacts);
+                if n < found {
                     reply.flags |= FLAG_TRUNCATED;
                 }
                 reply.count = n as u32;
                 (reply, &contacts[..n])
             }
-            Err(e) => {
+            Ok(Err(e)) => {
                 let spec = &self.spec;
                 reply.set_input_error(&e, |name| spec.body_index(name));
+                (reply, &[])
+            }
+            Err(_) => {
+                reply.set_error(lumen_proto::wire::Status::Internal, &"the detector failed on this frame; it was reset and the session goes on");
+                self.detector = Detector::new(&self.spec).ok();
                 (reply, &[])
             }
         }
     }
 
     fn refuse(&mut self, h: &FrameHeader, e: &FrameError) -> ContactsHeader {
+        if h.magic == lumen_proto::wire::FRAME_MAGIC && h.session == self.id {
+            self.last_frame = Some(h.frame); // answered, if with an error: not skipped
+        }
         let mut reply = ContactsHeader::reply_to(h);
         reply.session = self.id;
         reply.set_frame_error(e);
@@ -98,5 +112,51 @@ impl Engine {
     /// Periodic bookkeeping (frame rate).
     pub fn tick(&self) {
         self.entry.stats.lock().expect("stats lock").tick(Instant::now());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::registry::Registry;
+    use lumen_proto::session::{ControlReply, ControlRequest, Transport};
+    use lumen_proto::wire::{FrameError, Status};
+
+    fn engine() -> Engine {
+        let reg = Registry::new(crate::config::Limits::default());
+        let spec = crate::bench::scene::spec();
+        let req = ControlRequest::Open { version: 1, spec, client: "t".into(), echo: false };
+        let mut entry = None;
+        let r = crate::control::handle(&reg, Transport::Iceoryx2, req, |p| {
+            entry = Some(p.entry);
+            Ok(())
+        });
+        assert!(matches!(r, ControlReply::Opened(_)));
+        Engine::new(entry.unwrap(), false).unwrap()
+    }
+
+    #[test]
+    fn absurd_and_bad_frames_get_replies_and_good_ones_still_work() {
+        let mut e = engine();
+        let floats = e.layout.floats;
+        let mut state = vec![0.0f32; floats];
+        crate::bench::scene::write_state(0, &mut state);
+        let id = e.id;
+        let h = |n| FrameHeader::new(id, n, 0, floats, 2);
+        let (good, contacts) = e.run(Ok((h(0), &state)));
+        assert_eq!((good.status, good.frame), (0, 0));
+        let n_good = contacts.len();
+        assert!(n_good > 0);
+        // Finite but absurd coordinates: an answer (whatever it is), never a panic.
+        let huge: Vec<f32> = state.iter().map(|v| v * 1e30).collect();
+        let (r, _) = e.run(Ok((h(1), &huge)));
+        assert!(r.status == Status::Ok as u16 || r.status == Status::Internal as u16);
+        let (r, _) = e.run(Ok((h(2), &state[1..])));
+        assert_eq!(r.status(), Some(Status::BadLength));
+        let (r, _) = e.run(Err((FrameHeader::default(), FrameError::TooShort { got: 3 })));
+        assert_eq!((r.status(), r.session), (Some(Status::Malformed), id));
+        // Frame 5 after frame 2: two skipped (3 and 4), and the same contacts as frame 0.
+        let (r, c) = e.run(Ok((h(5), &state)));
+        assert_eq!((r.status, r.skipped, c.len()), (0, 2, n_good));
     }
 }

@@ -134,7 +134,7 @@ impl Daemon {
     /// for its ready line.
     pub fn start(bin: &Path, prefix: &str, port: Option<u16>, extra: &[&str]) -> Self {
         let mut cmd = Command::new(bin);
-        cmd.args(["serve", "--prefix", prefix, "--log", "info"]);
+        cmd.args(["serve", "--prefix", prefix, "--log", "warn"]);
         if let Some(p) = port {
             cmd.args(["--zenoh-listen", &format!("tcp/127.0.0.1:{p}")]);
         }
