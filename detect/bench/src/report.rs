@@ -1,0 +1,523 @@
+//! What the sweep found: [`Report`], written as `report.md` (tables), `report.json` (every
+//! figure) and `speed_vs_error.svg` (time per frame against p99 depth error).
+
+use crate::metrics::{Finding, Metrics};
+use crate::Error;
+use plotters::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One configuration: scene, spokes, precision, method. Times in microseconds per frame;
+/// speedups are medians of per-frame ratios (the other method's time over this one's, same
+/// frame, same run); errors in mm and degrees. `None` (JSON `null`) where there is nothing to
+/// measure (no contact judged, or the other method not run).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Run {
+    pub scene: String,
+    /// `thesis`, `default` or `parry`.
+    pub method: String,
+    pub x: u32,
+    pub spokes: usize,
+    pub rings: usize,
+    pub median_us: f64,
+    pub p99_us: f64,
+    pub mean_us: f64,
+    /// Median over frames of thesis time / this method's time.
+    pub speedup_vs_thesis: Option<f64>,
+    /// Median over frames of parry time / this method's time.
+    pub speedup_vs_parry: Option<f64>,
+    /// Median over frames of this method's time / the default's.
+    pub time_vs_default: Option<f64>,
+    pub frames_timed: usize,
+    pub contacts_per_frame: f64,
+    /// Default method: rod samples re-acquired through the BVH per frame.
+    pub reacquired_per_frame: Option<f64>,
+    pub missed: usize,
+    pub missed_dense: usize,
+    pub penetrating_dense: usize,
+    pub false_contacts: usize,
+    pub depth_err_mean_mm: Option<f64>,
+    pub depth_err_p99_mm: Option<f64>,
+    pub depth_err_max_mm: Option<f64>,
+    pub normal_err_p50_deg: Option<f64>,
+    pub normal_err_p99_deg: Option<f64>,
+    pub escaped_detected: usize,
+    pub escaped_total: usize,
+    pub frames_evaluated: usize,
+    pub contacts_evaluated: usize,
+    pub contacts_outside_domain: usize,
+    pub reference_bound_mm: f64,
+    pub reference_local_bound_p99_mm: Option<f64>,
+    pub reference_local_bound_max_mm: Option<f64>,
+    /// Not judged (the reference's wall point on or near a folded cell): contacts, penetrating
+    /// dense points, escaped samples.
+    pub excluded_contacts: usize,
+    pub excluded_dense: usize,
+    pub excluded_escapes: usize,
+    /// Located failures (at most a few per kind).
+    pub findings: Vec<Finding>,
+}
+
+impl Run {
+    /// Copies the accuracy figures in.
+    pub fn set_metrics(&mut self, m: Metrics, findings: &[Finding]) {
+        self.missed = m.missed;
+        self.missed_dense = m.missed_dense;
+        self.penetrating_dense = m.penetrating_dense;
+        self.false_contacts = m.false_contacts;
+        self.depth_err_mean_mm = m.depth_err_mean_mm;
+        self.depth_err_p99_mm = m.depth_err_p99_mm;
+        self.depth_err_max_mm = m.depth_err_max_mm;
+        self.normal_err_p50_deg = m.normal_err_p50_deg;
+        self.normal_err_p99_deg = m.normal_err_p99_deg;
+        self.escaped_detected = m.escaped_detected;
+        self.escaped_total = m.escaped_total;
+        self.frames_evaluated = m.frames_evaluated;
+        self.contacts_evaluated = m.contacts_evaluated;
+        self.contacts_outside_domain = m.contacts_outside_domain;
+        self.reference_bound_mm = m.reference_bound_mm;
+        self.reference_local_bound_p99_mm = m.reference_local_bound_p99_mm;
+        self.reference_local_bound_max_mm = m.reference_local_bound_max_mm;
+        self.excluded_contacts = m.excluded_contacts;
+        self.excluded_dense = m.excluded_dense;
+        self.excluded_escapes = m.excluded_escapes;
+        self.findings = findings.to_vec();
+    }
+}
+
+/// One scene at one spoke count.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct SceneInfo {
+    pub scene: String,
+    pub spokes: usize,
+    pub rings: usize,
+    pub frames: usize,
+    pub warmup: usize,
+    pub escaping_frames: usize,
+    /// Tip depth at the first and last frame (mm of colon midline).
+    pub tip_depth_mm: [f32; 2],
+    /// Frames judged against the reference.
+    pub eval_frames: Vec<usize>,
+    pub reference_steps: usize,
+    /// Half-length of the reference's windows (mm of midline; 0: whole colon).
+    pub reference_window_mm: f32,
+    /// Folded wall cells (neighbouring rings crossing) of the judged frames' colon, at most.
+    pub folded_cells: usize,
+    /// Largest global bound of the references (mm).
+    pub reference_bound_mm: f64,
+    /// Seconds to build the colon and its frames, and to build the references and judge.
+    pub build_s: f64,
+    pub judge_s: f64,
+    pub import_report: Option<String>,
+    pub attribution: Option<String>,
+}
+
+/// The default method on a colon with twice the rings, same endoscope.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RingsDoubled {
+    pub scene: String,
+    pub method: String,
+    pub x: u32,
+    pub spokes: usize,
+    pub rings: usize,
+    pub rings_doubled: usize,
+    pub median_us: f64,
+    pub p99_us: f64,
+    pub median_us_doubled: f64,
+    pub p99_us_doubled: f64,
+    /// Doubled median over normal median.
+    pub ratio_of_medians: f64,
+    /// Median over frames of doubled time / normal time.
+    pub pairwise_ratio: Option<f64>,
+    pub contacts_per_frame: f64,
+    pub contacts_per_frame_doubled: f64,
+}
+
+/// Where it ran.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Machine {
+    pub cpu: String,
+    pub cores: usize,
+    pub os: String,
+}
+
+impl Machine {
+    /// This machine: the CPU model from `/proc/cpuinfo` (or "unknown"), the cores the process
+    /// may use.
+    pub fn this() -> Self {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split_once(':')).map(|(_, v)| v.trim().to_owned()))
+            .unwrap_or_else(|| "unknown".into());
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        Self { cpu, cores, os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH) }
+    }
+}
+
+/// The git revision of the working tree (`git rev-parse --short HEAD`), or "unknown".
+pub fn git_revision() -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| s.trim().to_owned())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// Everything one sweep measured.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Report {
+    pub tool: String,
+    pub git_revision: String,
+    pub machine: Machine,
+    pub quick: bool,
+    /// The options, as run.
+    pub options: serde_json::Value,
+    /// How things were measured, in words.
+    pub method_notes: Vec<String>,
+    pub scenes: Vec<SceneInfo>,
+    pub runs: Vec<Run>,
+    pub rings_doubled: Vec<RingsDoubled>,
+    /// Scenes that could not run, and why.
+    pub skipped: Vec<String>,
+    /// Data credits (CC BY 4.0 for the GCA colon).
+    pub attribution: Vec<String>,
+    /// The precision of the summary tables and of the rings-doubled check.
+    pub default_precision: u32,
+    /// The spoke count of the summary tables.
+    pub default_spokes: usize,
+    pub wall_s: f64,
+}
+
+fn f(v: Option<f64>, digits: usize) -> String {
+    match v {
+        Some(v) if v.is_finite() => format!("{v:.digits$}"),
+        _ => "-".into(),
+    }
+}
+
+fn method_rank(m: &str) -> usize {
+    match m {
+        "default" => 0,
+        "thesis" => 1,
+        "parry" => 2,
+        _ => 3,
+    }
+}
+
+impl Report {
+    /// The runs of `scene` at spokes `b` and precision `x`, default first.
+    pub fn runs_at(&self, scene: &str, b: usize, x: u32) -> Vec<&Run> {
+        let mut v: Vec<&Run> = self.runs.iter().filter(|r| r.scene == scene && r.spokes == b && r.x == x).collect();
+        v.sort_by_key(|r| method_rank(&r.method));
+        v
+    }
+
+    /// The run of `method` at `scene`, `b`, `x`.
+    pub fn run(&self, scene: &str, method: &str, b: usize, x: u32) -> Option<&Run> {
+        self.runs.iter().find(|r| r.scene == scene && r.method == method && r.spokes == b && r.x == x)
+    }
+
+    fn scene_names(&self) -> Vec<String> {
+        let mut v: Vec<String> = Vec::new();
+        for r in &self.runs {
+            if !v.contains(&r.scene) {
+                v.push(r.scene.clone());
+            }
+        }
+        v
+    }
+
+    fn table_header() -> &'static str {
+        "| scene | B | rings | x | method | median us | p99 us | time / default | speedup vs thesis | speedup vs parry | contacts/frame | missed (dense pts) | false | depth err mean / p99 / max mm | normal err p50 / p99 deg | escapes detected |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    }
+
+    fn table_row(r: &Run) -> String {
+        format!(
+            "| {} | {} | {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {:.1} | {} ({}) | {} | {} / {} / {} | {} / {} | {} / {} |\n",
+            r.scene,
+            r.spokes,
+            r.rings,
+            r.x,
+            r.method,
+            r.median_us,
+            r.p99_us,
+            f(r.time_vs_default, 2),
+            f(r.speedup_vs_thesis, 1),
+            f(r.speedup_vs_parry, 1),
+            r.contacts_per_frame,
+            r.missed,
+            r.missed_dense,
+            r.false_contacts,
+            f(r.depth_err_mean_mm, 4),
+            f(r.depth_err_p99_mm, 4),
+            f(r.depth_err_max_mm, 3),
+            f(r.normal_err_p50_deg, 2),
+            f(r.normal_err_p99_deg, 2),
+            r.escaped_detected,
+            r.escaped_total
+        )
+    }
+
+    /// `report.md`.
+    pub fn markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# lumen bench detect{}\n", if self.quick { " (quick)" } else { "" });
+        let _ = writeln!(
+            s,
+            "Revision `{}`; {} ({} cores usable, single thread used); {:.0} s in all.\n",
+            self.git_revision, self.machine.cpu, self.machine.cores, self.wall_s
+        );
+        let (x, b) = (self.default_precision, self.default_spokes);
+        let _ = writeln!(s, "## At the default precision (x = {x}, B = {b})\n");
+        s.push_str(Self::table_header());
+        for scene in self.scene_names() {
+            for r in self.runs_at(&scene, b, x) {
+                s.push_str(&Self::table_row(r));
+            }
+        }
+        s.push('\n');
+        if !self.rings_doubled.is_empty() {
+            s.push_str("## Rings doubled (same endoscope, twice the rings at half the spacing)\n\n| scene | method | x | B | rings | median us | p99 us | rings doubled | median us | p99 us | ratio of medians | per-frame ratio (median) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+            for d in &self.rings_doubled {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.3} | {} |",
+                    d.scene, d.method, d.x, d.spokes, d.rings, d.median_us, d.p99_us, d.rings_doubled, d.median_us_doubled, d.p99_us_doubled, d.ratio_of_medians, f(d.pairwise_ratio, 3)
+                );
+            }
+            s.push('\n');
+        }
+        s.push_str("## Every configuration\n\n");
+        s.push_str(Self::table_header());
+        let mut all: Vec<&Run> = self.runs.iter().collect();
+        all.sort_by(|a, b| (&a.scene, a.spokes, a.x, method_rank(&a.method)).cmp(&(&b.scene, b.spokes, b.x, method_rank(&b.method))));
+        for r in all {
+            s.push_str(&Self::table_row(r));
+        }
+        s.push('\n');
+        s.push_str("## Scenes and references\n\n| scene | B | rings | frames (warm-up) | tip depth mm | frames with escapes | judged frames | reference steps | reference bound mm (global, max) | local bound at judged contacts, p99 / max mm (default, x) | build s | judge s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        for i in &self.scenes {
+            let d = self.run(&i.scene, "default", i.spokes, x);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} ({}) | {:.0}-{:.0} | {} | {} ({}) | {} | {:.4} | {} / {} | {:.1} | {:.1} |",
+                i.scene,
+                i.spokes,
+                i.rings,
+                i.frames,
+                i.warmup,
+                i.tip_depth_mm[0],
+                i.tip_depth_mm[1],
+                i.escaping_frames,
+                i.eval_frames.len(),
+                i.eval_frames.iter().map(|f| f.to_string()).collect::<Vec<_>>().join(","),
+                i.reference_steps,
+                i.reference_bound_mm,
+                f(d.and_then(|d| d.reference_local_bound_p99_mm), 4),
+                f(d.and_then(|d| d.reference_local_bound_max_mm), 4),
+                i.build_s,
+                i.judge_s
+            );
+        }
+        s.push('\n');
+        for i in self.scenes.iter().filter(|i| i.import_report.is_some()) {
+            let _ = writeln!(s, "Import, {} B = {}: {}\n", i.scene, i.spokes, i.import_report.as_deref().unwrap_or(""));
+        }
+        let findings: Vec<(&Run, &Finding)> = self.runs.iter().filter(|r| r.method == "default").flat_map(|r| r.findings.iter().map(move |f| (r, f))).collect();
+        s.push_str("## Where the default method disagrees with the reference\n\n");
+        if findings.is_empty() {
+            s.push_str("Nowhere beyond the tolerances (depth 0.05 mm, normal 3 degrees, gap / penetration 0.1 mm).\n\n");
+        } else {
+            s.push_str("At most a few per kind and configuration; `sample` counts at the run's precision (`segment * x + step`, tip first).\n\n| scene | B | x | kind | frame | sample | point mm | reported depth | reference depth | normal err deg | reference sd at the method's wall point | ring, spoke, param, flags | local ref bound |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+            for (r, g) in findings {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} | ({:.2}, {:.2}, {:.2}) | {} | {:.4} | {} | {} | {} | {:.4} |",
+                    r.scene,
+                    r.spokes,
+                    r.x,
+                    g.kind,
+                    g.frame,
+                    g.sample,
+                    g.point[0],
+                    g.point[1],
+                    g.point[2],
+                    f(g.reported_depth.map(f64::from), 4),
+                    g.reference_depth,
+                    f(g.normal_err_deg.map(f64::from), 2),
+                    f(g.reported_wall_sd.map(f64::from), 3),
+                    g.place.map_or("-".into(), |p| format!("{}, {}, {:.3}, {}", p.ring, p.spoke, p.param, p.flags)),
+                    g.reference_local_bound_mm
+                );
+            }
+            s.push('\n');
+        }
+        s.push_str("## How it was measured\n\n");
+        for n in &self.method_notes {
+            let _ = writeln!(s, "- {n}");
+        }
+        s.push('\n');
+        if !self.skipped.is_empty() {
+            s.push_str("## Skipped\n\n");
+            for k in &self.skipped {
+                let _ = writeln!(s, "- {k}");
+            }
+            s.push('\n');
+        }
+        if !self.attribution.is_empty() {
+            s.push_str("## Data\n\n");
+            for a in &self.attribution {
+                let _ = writeln!(s, "Results on the `gca` scene derive from: {a}.");
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    /// `speed_vs_error.svg`: per scene, time per frame (median, log) against p99 depth error
+    /// (log), one series per method; lines join a method's precisions at the default spoke
+    /// count, every point is labelled `x, B`.
+    pub fn svg(&self) -> Result<String, Error> {
+        let scenes = self.scene_names();
+        let panels = scenes.len().max(1);
+        let mut out = String::new();
+        {
+            let root = SVGBackend::with_string(&mut out, (620 * panels as u32, 600)).into_drawing_area();
+            let pe = |e: &dyn std::fmt::Display| Error::Plot(e.to_string());
+            root.fill(&WHITE).map_err(|e| pe(&e))?;
+            let title = format!(
+                "Lumen collision methods: speed against error ({}, rev {}, {})",
+                if self.quick { "quick sweep" } else { "full sweep" },
+                self.git_revision,
+                self.machine.cpu
+            );
+            let (top, rest) = root.split_vertically(40);
+            top.draw(&Text::new(title, (12, 12), ("sans-serif", 18).into_font())).map_err(|e| pe(&e))?;
+            let (body, foot) = rest.split_vertically(540);
+            if self.attribution.is_empty() {
+                foot.draw(&Text::new("Lower left is better; the Pareto front is the lower-left envelope.".to_string(), (12, 2), ("sans-serif", 13).into_font())).map_err(|e| pe(&e))?;
+            } else {
+                foot.draw(&Text::new(format!("Lower left is better. gca: {}", self.attribution.join("; ")), (12, 2), ("sans-serif", 12).into_font())).map_err(|e| pe(&e))?;
+            }
+            let areas = body.split_evenly((1, panels));
+            const FLOOR: f64 = 1e-4;
+            let colour = |m: &str| match m {
+                "default" => RGBColor(0, 114, 178),
+                "thesis" => RGBColor(213, 94, 0),
+                "parry" => RGBColor(0, 158, 115),
+                _ => RGBColor(80, 80, 80),
+            };
+            for (area, scene) in areas.iter().zip(&scenes) {
+                let pts: Vec<(&Run, f64, f64)> =
+                    self.runs.iter().filter(|r| &r.scene == scene && r.median_us > 0.0).map(|r| (r, r.median_us, r.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR))).collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
+                for &(_, t, e) in &pts {
+                    x0 = x0.min(t);
+                    x1 = x1.max(t);
+                    y0 = y0.min(e);
+                    y1 = y1.max(e);
+                }
+                let (x0, x1) = (x0 / 1.6, x1 * 1.6);
+                let (y0, y1) = (y0 / 2.0, y1 * 2.0);
+                let mut chart = ChartBuilder::on(area)
+                    .caption(format!("scene: {scene}"), ("sans-serif", 16))
+                    .margin(12)
+                    .x_label_area_size(40)
+                    .y_label_area_size(64)
+                    .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                    .map_err(|e| pe(&e))?;
+                chart
+                    .configure_mesh()
+                    .x_desc("time per frame, median (us, log)")
+                    .y_desc("p99 depth error (mm, log)")
+                    .x_label_formatter(&|v| format!("{v:.0}"))
+                    .y_label_formatter(&|v| format!("{v:.0e}"))
+                    .draw()
+                    .map_err(|e| pe(&e))?;
+                // The 0.05 mm target.
+                if 0.05 > y0 && 0.05 < y1 {
+                    chart
+                        .draw_series(LineSeries::new(vec![(x0, 0.05), (x1, 0.05)], RGBColor(150, 150, 150).stroke_width(1)))
+                        .map_err(|e| pe(&e))?
+                        .label("0.05 mm target")
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], RGBColor(150, 150, 150)));
+                }
+                let mut methods: Vec<&str> = pts.iter().map(|p| p.0.method.as_str()).collect();
+                methods.sort_by_key(|m| method_rank(m));
+                methods.dedup();
+                for m in methods {
+                    let c = colour(m);
+                    let mine: Vec<&(&Run, f64, f64)> = pts.iter().filter(|p| p.0.method == m).collect();
+                    let mut line: Vec<(f64, f64)> = mine.iter().filter(|p| p.0.spokes == self.default_spokes).map(|p| (p.1, p.2)).collect();
+                    line.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    chart
+                        .draw_series(LineSeries::new(line, c.stroke_width(2)))
+                        .map_err(|e| pe(&e))?
+                        .label(format!("{m} (line: B = {})", self.default_spokes))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+                    chart
+                        .draw_series(mine.iter().map(|p| {
+                            let filled = p.0.spokes == self.default_spokes;
+                            Circle::new((p.1, p.2), 4, if filled { c.filled() } else { c.stroke_width(1) })
+                        }))
+                        .map_err(|e| pe(&e))?;
+                    chart
+                        .draw_series(mine.iter().map(|p| Text::new(format!("x{} B{}", p.0.x, p.0.spokes), (p.1, p.2), ("sans-serif", 10).into_font().color(&c))))
+                        .map_err(|e| pe(&e))?;
+                }
+                // Pareto front over every configuration of the scene.
+                let mut sorted: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
+                sorted.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                let mut front = Vec::new();
+                let mut best = f64::INFINITY;
+                for (t, e) in sorted {
+                    if e < best {
+                        best = e;
+                        front.push((t, e));
+                    }
+                }
+                chart
+                    .draw_series(DashedLineSeries::new(front, 6, 4, BLACK.stroke_width(1)))
+                    .map_err(|e| pe(&e))?
+                    .label("Pareto front")
+                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 12))
+                    .draw()
+                    .map_err(|e| pe(&e))?;
+            }
+            root.present().map_err(|e| pe(&e))?;
+        }
+        Ok(out)
+    }
+
+    /// `report.json`.
+    pub fn json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a report serialises")
+    }
+
+    /// Writes `dir/report.md`, `dir/report.json` and `dir/speed_vs_error.svg`, creating `dir`.
+    pub fn write(&self, dir: impl AsRef<Path>) -> Result<(), Error> {
+        let dir = dir.as_ref();
+        let io = |p: &Path, e: std::io::Error| Error::Io(format!("{}: {e}", p.display()));
+        std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+        for (name, text) in [("report.md", self.markdown()), ("report.json", self.json()), ("speed_vs_error.svg", self.svg()?)] {
+            let p = dir.join(name);
+            std::fs::write(&p, text).map_err(|e| io(&p, e))?;
+        }
+        Ok(())
+    }
+}
