@@ -160,6 +160,9 @@ pub struct Options {
     pub rings_doubled: bool,
     /// How the parry baseline models the endoscope.
     pub parry_shape: ParryShape,
+    /// Axial refinements of the default method ([`lumen_detect::Detector::set_refine`]; 0, the
+    /// detector's default).
+    pub refine: u32,
     /// Contact margin of the detectors = parry's prediction distance (mm).
     pub margin: f32,
 }
@@ -172,7 +175,7 @@ impl Default for Options {
 
 impl Options {
     /// The full sweep: both scenes, `x` in {1, 2, 4, 8, 16}, `B` in {16, 32, 64}, 256 frames (16
-    /// warm-up), 3 passes, every 16th frame judged (and every 4th while control points are
+    /// warm-up), 3 passes, every 32nd frame judged (and every 8th while control points are
     /// pushed through the wall), against references of 32 subdivisions per ring segment.
     pub fn full() -> Self {
         Self {
@@ -185,8 +188,8 @@ impl Options {
             frames: 256,
             warmup: 16,
             repeats: 3,
-            eval_every: 16,
-            eval_escapes_every: 4,
+            eval_every: 32,
+            eval_escapes_every: 8,
             reference_steps_generated: 32,
             reference_steps_gca: 32,
             reference_window_mm: 60.0,
@@ -198,6 +201,7 @@ impl Options {
             doubled_spokes: 32,
             rings_doubled: true,
             parry_shape: ParryShape::RoundSegments,
+            refine: 0,
             margin: 0.0,
         }
     }

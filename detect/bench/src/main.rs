@@ -29,6 +29,7 @@ USAGE: lumen-bench [--quick] [--scene gca|generated|all] [--out DIR] [--data PAT
   --ref-steps-generated N / --ref-steps-gca N   reference subdivisions per ring segment
   --seed N             seed of the generated colon and the escapes
   --no-doubled         skip the rings-doubled check
+  --refine N           axial refinements of the default method (Detector::set_refine)
   --parry-capsules     parry: query capsules everywhere (default: round segments,
                        capsules only where the axis nears the wall)
   --no-progress        no progress bar
@@ -66,6 +67,7 @@ fn parse(args: &[String]) -> Result<(Options, PathBuf, bool), String> {
             "--ref-steps-gca" => o.reference_steps_gca = val()?.parse().map_err(|_| "--ref-steps-gca: a number")?,
             "--seed" => o.seed = val()?.parse().map_err(|_| "--seed: a number")?,
             "--no-doubled" => o.rings_doubled = false,
+            "--refine" => o.refine = val()?.parse().map_err(|_| "--refine: a number")?,
             "--parry-capsules" => o.parry_shape = ParryShape::Capsules,
             "--no-progress" => progress = false,
             other => return Err(format!("unknown argument {other:?}")),

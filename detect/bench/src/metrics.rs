@@ -492,6 +492,10 @@ pub struct Finding {
     /// wall were the reference's).
     pub reported_wall: Option<[f32; 3]>,
     pub reported_wall_sd: Option<f32>,
+    /// Whether the method's wall point lies on or near a folded cell, or on a part of the colon
+    /// more than [`FOREIGN_MM`] from the sample's own place (the method used a wall that is not
+    /// the truth there).
+    pub reported_wall_excluded: Option<bool>,
     /// Where the method placed it on the tube (`lumen-detect` methods).
     pub place: Option<Place>,
 }
@@ -673,6 +677,7 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
             reference_local_bound_mm: lb,
             reported_wall: Some(c.wall),
             reported_wall_sd: Some(wall.q.sd),
+            reported_wall_excluded: Some(wall.folded),
             place: c.place,
         };
         if -ref_depth >= TOLERANCE_MM {
@@ -717,6 +722,7 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
                             reference_local_bound_mm: dans[i].local_bound,
                             reported_wall: None,
                             reported_wall_sd: None,
+                            reported_wall_excluded: None,
                             place: None,
                         });
                     }
@@ -758,6 +764,7 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
                 reference_local_bound_mm: dans[di].local_bound,
                 reported_wall: hit.map(|c| c.wall),
                 reported_wall_sd: None,
+                reported_wall_excluded: None,
                 place: hit.and_then(|c| c.place),
             });
         }

@@ -55,7 +55,13 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
     let spec = spec_for(scene, x, method);
     let mut runner = match method {
         MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape).map_err(Error::Scene)?),
-        _ => Runner::Detector(Detector::new(&spec).map_err(|e| Error::Scene(e.to_string()))?),
+        _ => {
+            let mut d = Detector::new(&spec).map_err(|e| Error::Scene(e.to_string()))?;
+            if method == MethodKind::Default {
+                d.set_refine(opts.refine);
+            }
+            Runner::Detector(d)
+        }
     };
     buf.clear();
     buf.extend_from_slice(scene.state(0));
