@@ -94,8 +94,8 @@ impl Engine {
         skipped
     }
 
-    /// Records a sent reply; `received` is when the daemon saw the frame.
-    pub fn record(&self, reply: &ContactsHeader, received: Instant) {
+    /// Records a sent reply; `service` is the time from seeing the frame to the reply sent.
+    pub fn record(&self, reply: &ContactsHeader, service: std::time::Duration) {
         let mut s = self.entry.stats.lock().expect("stats lock");
         s.frames += 1;
         s.skipped += reply.skipped as u64;
@@ -106,7 +106,7 @@ impl Engine {
         } else {
             s.bad_frames += 1;
         }
-        s.service.push(received.elapsed().as_nanos() as u64);
+        s.service.push(service.as_nanos() as u64);
     }
 
     /// Periodic bookkeeping (frame rate).

@@ -249,6 +249,7 @@ impl Channels {
         let Some(sample) = newest else { return };
         // The frame is read where the client wrote it: no copy.
         let (reply, contacts) = engine.run(Ok((*sample.user_header(), sample.payload())));
+        let mut service = received.elapsed();
         match self.publisher.loan_slice_uninit(contacts.len()) {
             Ok(loan) => {
                 let mut out = loan.write_from_slice(contacts);
@@ -256,6 +257,8 @@ impl Channels {
                 if let Err(e) = out.send() {
                     tracing::warn!("session {}: sending contacts: {e:?}", engine.id);
                 }
+                // Measured before the wake-up: the woken client may take this core at once.
+                service = received.elapsed();
                 if let Err(e) = self.notifier.notify() {
                     tracing::warn!("session {}: notifying: {e:?}", engine.id);
                 }
@@ -263,7 +266,7 @@ impl Channels {
             Err(e) => tracing::warn!("session {}: no shared memory for the reply: {e:?}", engine.id),
         }
         drop(sample);
-        engine.record(&reply, received);
+        engine.record(&reply, service);
     }
 
     fn client_present(&self) -> bool {

@@ -129,10 +129,11 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
                 // zenoh takes ownership of what it sends: one buffer per reply.
                 let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));
                 encode_contacts(&mut reply, contacts, &mut out);
+                let service = received.elapsed();
                 if let Err(e) = publisher.put(out).wait() {
                     tracing::warn!("session {}: publishing contacts: {e}", engine.id);
                 }
-                engine.record(&reply, received);
+                engine.record(&reply, service);
             }
             Ok(None) => {}
             Err(e) => return Err(format!("frame subscriber: {e}")),

@@ -27,6 +27,9 @@ pub struct IpcRun {
     pub echo_p50_us: f64,
     /// Median detection time reported by the daemon.
     pub detect_us: f64,
+    /// Daemon-side p50 from seeing the frame to having sent the reply (detection included):
+    /// what the round trip adds beyond this is transport and wake-ups.
+    pub daemon_p50_us: f64,
     /// Frames measured (after warm-up; all sessions).
     pub frames: u64,
     /// Frames without their own reply (timed out, skipped or refused).
@@ -54,10 +57,10 @@ impl IpcReport {
             self.cores,
             if self.quick { ", --quick" } else { "" }
         );
-        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | detect | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | detect | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for r in &self.runs {
             s += &format!(
-                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
+                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
                 r.transport,
                 r.mode,
                 r.p50_us,
@@ -65,6 +68,7 @@ impl IpcReport {
                 r.p999_us,
                 r.echo_p50_us,
                 r.detect_us,
+                r.daemon_p50_us,
                 r.p50_us - r.echo_p50_us - r.detect_us,
                 r.frames,
                 r.lost_frames
@@ -95,6 +99,8 @@ struct Samples {
     rtt_ns: Vec<u64>,
     detect_ns: Vec<u64>,
     lost: u64,
+    /// Daemon-side service-time p50 of each session measured, us.
+    daemon_p50_us: Vec<f64>,
 }
 
 impl Samples {
@@ -102,6 +108,7 @@ impl Samples {
         self.rtt_ns.extend(o.rtt_ns);
         self.detect_ns.extend(o.detect_ns);
         self.lost += o.lost;
+        self.daemon_p50_us.extend(o.daemon_p50_us);
     }
 }
 
@@ -252,6 +259,7 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
         p999_us: quantile_us(&mut det.rtt_ns, 0.999),
         echo_p50_us: quantile_us(&mut echo.rtt_ns, 0.5),
         detect_us: quantile_us(&mut det.detect_ns, 0.5),
+        daemon_p50_us: det.daemon_p50_us.iter().sum::<f64>() / det.daemon_p50_us.len().max(1) as f64,
         frames: det.rtt_ns.len() as u64 + det.lost,
         lost_frames: det.lost,
     }
@@ -281,7 +289,7 @@ fn state_index(k: usize) -> usize {
 fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize, echo: bool) -> Result<Samples, ClientError> {
     let mut session: Session = if echo { client.open_echo_session(spec)? } else { client.open_session(spec)? };
     let warm = (frames / 10).max(50);
-    let mut out = Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), lost: 0 };
+    let mut out = Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), ..Samples::default() };
     let start = Instant::now();
     for k in 0..warm + frames {
         if mode == Mode::Paced1kHz {
@@ -314,6 +322,10 @@ fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, f
                 Err(e) => return Err(e),
             }
         }
+    }
+    // The daemon keeps its last 1024 service times: all of them from the measured frames.
+    if let Some(me) = client.status()?.sessions.iter().find(|x| x.session == session.id()) {
+        out.daemon_p50_us.push(me.service.p50_us);
     }
     Ok(out)
 }
