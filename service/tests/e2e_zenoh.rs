@@ -135,3 +135,38 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
     assert_eq!((v.frames, v.bad_frames), (151, 150));
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }
+
+#[test]
+fn zenoh_clients_resume_after_a_daemon_restart() {
+    let prefix = unique_prefix("zk9");
+    let port = free_port();
+    let mut d = Daemon::start(Path::new(LUMEN), &prefix, Some(port), &[]);
+    let scene = TestScene::new(30, 8, 16);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    let first = s.id();
+    s.submit_state(&scene.state(0)).unwrap();
+    assert_eq!(s.contacts(WAIT).unwrap().result(), Ok(()));
+    d.process.kill9();
+    let d = Daemon::start(Path::new(LUMEN), &prefix, Some(port), &[]);
+    let restarted = std::time::Instant::now();
+    let mut resumed = false;
+    for k in 1.. {
+        if s.submit_state(&scene.state(k)).is_err() {
+            std::thread::sleep(Duration::from_millis(20)); // no daemon yet: retry shortly
+        } else if let Ok(r) = s.contacts(Duration::from_millis(200)) {
+            if r.result().is_ok() && s.id() != first {
+                resumed = true;
+                break;
+            }
+        }
+        if restarted.elapsed() > Duration::from_secs(20) {
+            break;
+        }
+    }
+    assert!(resumed, "the zenoh client did not resume");
+    eprintln!("zenoh daemon kill -9 + restart: resumed {:?} after the new daemon was ready", restarted.elapsed());
+    assert_eq!(s.reconnects(), 1);
+    drop(s);
+    assert_eq!(d.terminate().map(|s| s.success()), Some(true));
+}
