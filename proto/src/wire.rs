@@ -308,6 +308,15 @@ pub fn decode_frame(bytes: &[u8], session: u64, layout: &StateLayout, state: &mu
 /// Appends a whole frame message (header then floats, little-endian) to `out`.
 pub fn encode_frame(header: &FrameHeader, state: &[f32], out: &mut Vec<u8>) {
     out.extend_from_slice(&header.to_bytes());
+    out.reserve(4 * state.len());
+    #[cfg(target_endian = "little")]
+    {
+        // SAFETY: f32 has no padding and no invalid bytes; u8 needs no alignment; the view
+        // covers exactly the slice's memory. On little-endian hosts these are the wire bytes.
+        let bytes = unsafe { std::slice::from_raw_parts(state.as_ptr().cast::<u8>(), std::mem::size_of_val(state)) };
+        out.extend_from_slice(bytes);
+    }
+    #[cfg(not(target_endian = "little"))]
     for v in state {
         out.extend_from_slice(&v.to_le_bytes());
     }
