@@ -7,7 +7,8 @@ use crate::engine::Engine;
 use crate::registry::Registry;
 use lumen_client::remote::config;
 use lumen_proto::session::{ControlReply, Transport, CONTROL, DAEMON_ALIVE};
-use lumen_proto::wire::{decode_frame, encode_contacts, CONTACTS_HEADER_BYTES, CONTACT_BYTES};
+use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
+use lumen_proto::StateLayout;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -122,9 +123,8 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
         match frames.recv_timeout(TICK) {
             Ok(Some(sample)) => {
                 let received = Instant::now();
-                let bytes = sample.payload().to_bytes();
                 // Anything at all may arrive on the key: decoding checks every length first.
-                let decoded = decode_frame(&bytes, engine.id, &engine.layout, &mut state);
+                let decoded = decode_payload(sample.payload(), engine.id, &engine.layout, &mut state);
                 let (mut reply, contacts) = engine.run(decoded.map(|h| (h, state.as_slice())));
                 // zenoh takes ownership of what it sends: one buffer per reply.
                 let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));
@@ -157,5 +157,85 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
                 return Ok("daemon stopping");
             }
         }
+    }
+}
+
+/// Decodes a frame straight from zenoh's fragments into `state` (capacity: the state size), with
+/// the checks of [`lumen_proto::wire::decode_frame`] and no intermediate contiguous copy.
+pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &StateLayout, state: &mut Vec<f32>) -> Result<FrameHeader, (FrameHeader, FrameError)> {
+    let len = payload.len();
+    if len < FRAME_HEADER_BYTES {
+        return Err((FrameHeader::default(), FrameError::TooShort { got: len }));
+    }
+    let mut head = [0u8; FRAME_HEADER_BYTES];
+    let mut filled = 0;
+    let mut slices = payload.slices();
+    let mut rest: &[u8] = &[];
+    while filled < FRAME_HEADER_BYTES {
+        let Some(s) = slices.next() else { break };
+        let n = s.len().min(FRAME_HEADER_BYTES - filled);
+        head[filled..filled + n].copy_from_slice(&s[..n]);
+        filled += n;
+        rest = &s[n..];
+    }
+    let header = FrameHeader::read(&head).map_err(|e| (FrameHeader::default(), e))?;
+    let body = len - FRAME_HEADER_BYTES;
+    if body % 4 != 0 {
+        return Err((header, FrameError::Ragged { bytes: body }));
+    }
+    header.check(session, layout, body / 4).map_err(|e| (header, e))?;
+    state.clear();
+    let mut carry = [0u8; 4];
+    let mut nc = 0;
+    for mut s in std::iter::once(rest).chain(slices) {
+        if nc > 0 {
+            let n = s.len().min(4 - nc);
+            carry[nc..nc + n].copy_from_slice(&s[..n]);
+            nc += n;
+            s = &s[n..];
+            if nc < 4 {
+                continue;
+            }
+            state.push(f32::from_le_bytes(carry));
+        }
+        let chunks = s.chunks_exact(4);
+        let tail = chunks.remainder();
+        state.extend(chunks.map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+        carry[..tail.len()].copy_from_slice(tail);
+        nc = tail.len();
+    }
+    Ok(header)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumen_proto::wire::encode_frame;
+    use lumen_proto::{BodySpec, SceneSpec, Shape};
+
+    #[test]
+    fn fragmented_payloads_decode_like_contiguous_ones() {
+        let spec = SceneSpec::new(vec![BodySpec { name: "r".into(), shape: Shape::Rod { points: 50, radius: vec![1.0] } }], vec![]);
+        let layout = StateLayout::of(&spec);
+        let floats: Vec<f32> = (0..150).map(|i| i as f32 * 0.5).collect();
+        let mut msg = Vec::new();
+        encode_frame(&FrameHeader::new(9, 4, 0, 150, 1), &floats, &mut msg);
+        // Cut into fragments at awkward places (inside the header, inside floats).
+        for cuts in [vec![], vec![7], vec![40, 41, 43, 100], vec![3, 39, 45, 46, 47, 333, 600]] {
+            let mut w = zenoh::bytes::ZBytes::writer();
+            let mut at = 0;
+            for c in cuts.iter().copied().chain(std::iter::once(msg.len())) {
+                w.append(zenoh::bytes::ZBytes::from(msg[at..c].to_vec()));
+                at = c;
+            }
+            let z = w.finish();
+            assert_eq!(z.slices().count(), cuts.len() + 1);
+            let mut state = Vec::with_capacity(150);
+            let h = decode_payload(&z, 9, &layout, &mut state).unwrap();
+            assert_eq!((h.frame, state.as_slice()), (4, floats.as_slice()), "cuts {cuts:?}");
+        }
+        let short = zenoh::bytes::ZBytes::from(msg[..msg.len() - 2].to_vec());
+        assert_eq!(decode_payload(&short, 9, &layout, &mut Vec::new()).unwrap_err().1, FrameError::Ragged { bytes: 598 });
+        assert_eq!(decode_payload(&zenoh::bytes::ZBytes::from(vec![1u8; 5]), 9, &layout, &mut Vec::new()).unwrap_err().1, FrameError::TooShort { got: 5 });
     }
 }
