@@ -1,0 +1,47 @@
+//! Lumen's colonoscopy physics: an endoscope pushed through a colon by a scripted operator,
+//! kept inside by Lumen's contacts.
+//!
+//! The scope is an XPBD rod (stretch and bend constraints, a torsionally rigid shaft whose
+//! handle roll turns the angulated tip); the colon is the rest wall of a Lumen tube whose spoke
+//! tips move outward where they are touched and spring back; every frame the contacts of the
+//! frame's starting state become contact constraints on both, with the detector's normals and
+//! tip weights. The question it answers: does the scope stay inside the colon, however hard it
+//! is pushed? ([`FrameReport::escaped`], [`FrameReport::max_penetration_mm`]).
+//!
+//! **Units.** Millimetres, seconds, kilograms throughout (forces in mN = kg mm/s^2 inside the
+//! solver, N in parameters and reports; stiffnesses in N/m = mN/mm).
+//!
+//! **Determinism.** No randomness and no hash-ordered iteration: equal colons, configurations
+//! and contact sources give bit-identical runs. The generated colon takes a seed.
+//!
+//! ## Modules
+//! - [`rod`]: the scope (XPBD rod, the bend and stretch math, angulation).
+//! - [`wall`]: the colon wall's tips (radial particles on springs, membrane, range; only the
+//!   touched ones are simulated).
+//! - [`operator`]: the scripted hands (insert, pull back, angulate, twist, the hard push).
+//! - [`contact`]: Lumen contacts as XPBD contact constraints.
+//! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
+//!   [`ContactSource`] seam where the daemon plugs in.
+//! - [`setup`]: the colons, the scope's starting pose, the scene spec.
+//!
+//! ```no_run
+//! use lumen_sim::{setup, SimConfig, World};
+//! let colon = setup::generated_colon(1, 1500.0);
+//! let mut world = World::in_process(&colon, SimConfig::default()).unwrap();
+//! for _ in 0..3000 {
+//!     let r = world.step().unwrap();
+//!     assert_eq!(r.escaped, 0);
+//! }
+//! ```
+
+pub mod contact;
+pub mod operator;
+pub mod rod;
+pub mod setup;
+pub mod wall;
+pub mod world;
+
+pub use operator::{Action, Operator, Phase, Script};
+pub use rod::{Rod, RodParams, V3};
+pub use wall::{Wall, WallParams};
+pub use world::{ContactSource, FnSource, FrameReport, InProcess, SimConfig, SimError, SimParams, SourceError, World};

@@ -1,0 +1,149 @@
+//! Scenes for the simulation: the colons, the scope's starting pose, the scene spec.
+//!
+//! **Units**: millimetres.
+//!
+//! - [`generated_colon`]: `lumen_scene`'s seeded colon (default 1.5 m, 1.2 mm rings, 32 spokes).
+//! - [`gca_colon`]: the real colon (Edinburgh Gut Cell Atlas EdinGCA_3D_00090, CC BY 4.0,
+//!   doi:10.1186/s12911-023-02111-9, see [`lumen_scene::gca_attribution`]) imported with 32
+//!   spokes every 1 mm and inflated twice (the scan is not insufflated).
+//! - [`insertion_pose`]: the scope laid through the lumen with its tip at a given depth, the way
+//!   [`lumen_scene::endoscope::Insertion`] lays it (riding the outer wall of bends), but not
+//!   pressing into the wall, the rest straight out of the anus.
+//! - [`sigmoid_bend_mm`]: where the hard push happens: the sharpest bend of the midline in the
+//!   sigmoid's stretch of the colon.
+
+use crate::rod::{RodParams, V3};
+use crate::world::SimParams;
+use lumen_detect::Tube;
+use lumen_proto::{BodySpec, ContactKind, PairSpec, SceneSpec, Shape};
+use lumen_scene::colon::{generate, ColonParams};
+use lumen_scene::endoscope::Insertion;
+use lumen_scene::import::{build_tube, gca_paths, load_centerline_csv, load_mesh, ImportParams};
+use lumen_scene::probe::Lumen;
+use std::path::Path;
+
+/// Name of the colon body in the scene spec (body 0).
+pub const COLON: &str = "colon";
+/// Name of the scope body in the scene spec (body 1).
+pub const SCOPE: &str = "scope";
+
+/// The generated colon of `seed`, `length_mm` long (1500 for the adult colon).
+pub fn generated_colon(seed: u64, length_mm: f32) -> Tube {
+    generate(&ColonParams { length_mm, ..ColonParams::seeded(seed) })
+}
+
+/// The GCA colon from `dir` (default: `../shared/data/colon-gca00090` beside the workspace),
+/// 32 spokes every 1 mm, inflated twice; the error says what is missing.
+pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, String> {
+    let (mesh, line) = gca_paths(dir)?;
+    let mesh = load_mesh(&mesh).map_err(|e| e.to_string())?;
+    let line = load_centerline_csv(&line).map_err(|e| e.to_string())?;
+    let params = ImportParams { spokes: 32, ring_spacing: 1.0, inflate: 2.0, ..Default::default() };
+    build_tube(&mesh, &line, &params).map(|(t, _)| t).map_err(|e| e.to_string())
+}
+
+/// The scope's control points (tip first) with its tip `tip_depth_mm` along the colon's
+/// midline: through the lumen, on the outer side of bends but not into the wall, and straight
+/// back out of the first ring for the part that is not inside.
+pub fn insertion_pose(tube: &Tube, rod: &RodParams, tip_depth_mm: f64) -> Vec<V3> {
+    let ins = Insertion { length_mm: rod.length_mm as f32, radius_mm: rod.radius_mm as f32, points: rod.points, press_mm: 0.0, residual_mm: 0.0, escapes: false };
+    let f = ins.frame(tube, tip_depth_mm as f32);
+    f.scope.points.iter().map(|p| V3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect()
+}
+
+/// The insertion axis: the first ring's control point and the unit direction into the colon.
+pub fn insertion_axis(tube: &Tube) -> (V3, V3) {
+    let lumen = Lumen::new(tube);
+    let p = tube.points[0];
+    (V3::new(p[0] as f64, p[1] as f64, p[2] as f64), lumen.normal(0))
+}
+
+/// Arc length of the midline (mm) at its sharpest bend between 12% and 35% of its length
+/// (the sigmoid of an adult colon: about 180 to 525 mm of 1.5 m), curvature measured over a
+/// 20 mm chord either side, among the places where the tube model is valid for 30 mm around:
+/// the midline's bend radius at least its ring's longest spoke ([`valid_bends`]), so ring
+/// planes do not cross inside the lumen. (The generated colon is valid everywhere; the GCA
+/// colon inflated twice is not: see [`valid_bends`].) Falls back to the sharpest bend if no
+/// place qualifies.
+pub fn sigmoid_bend_mm(tube: &Tube) -> f64 {
+    let p: Vec<V3> = tube.points.iter().map(|p| V3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect();
+    let mut arc = vec![0.0; p.len()];
+    for i in 1..p.len() {
+        arc[i] = arc[i - 1] + (p[i] - p[i - 1]).norm();
+    }
+    let valid = valid_bends(tube);
+    let total = arc[arc.len() - 1];
+    let (lo, hi) = (0.12 * total, 0.35 * total);
+    let h = 20.0;
+    let mut best = (f64::NEG_INFINITY, 0.5 * (lo + hi));
+    let mut best_any = best;
+    for i in 0..p.len() {
+        if arc[i] < lo || arc[i] > hi {
+            continue;
+        }
+        let a = arc.partition_point(|&s| s < arc[i] - h);
+        let b = arc.partition_point(|&s| s <= arc[i] + h).min(p.len() - 1);
+        if a >= i || b <= i {
+            continue;
+        }
+        let (u, v) = ((p[i] - p[a]).normalize(), (p[b] - p[i]).normalize());
+        let turn = u.dot(&v).clamp(-1.0, 1.0).acos();
+        if turn > best_any.0 {
+            best_any = (turn, arc[i]);
+        }
+        let (wa, wb) = (arc.partition_point(|&s| s < arc[i] - 30.0), arc.partition_point(|&s| s <= arc[i] + 30.0));
+        if turn > best.0 && valid[wa..wb].iter().all(|&ok| ok) {
+            best = (turn, arc[i]);
+        }
+    }
+    if best.0 > f64::NEG_INFINITY {
+        best.1
+    } else {
+        best_any.1
+    }
+}
+
+/// For each ring, whether the midline's bend radius there (the circumradius of the midline
+/// points one longest-spoke length before and after it, as [`lumen_scene::probe::clearance`]
+/// measures) is at least the ring's longest spoke: where it is not, the ring planes of the
+/// bend cross inside the lumen and tube coordinates are ambiguous.
+pub fn valid_bends(tube: &Tube) -> Vec<bool> {
+    let lm = Lumen::new(tube);
+    let n = lm.rings();
+    let arc = lm.arc().to_vec();
+    let pts: Vec<V3> = (0..n).map(|i| lm.point(i)).collect();
+    (0..n)
+        .map(|i| {
+            let r = lm.max_radius(i);
+            let (a, b) = (arc[i] - r, arc[i] + r);
+            if a < 0.0 || b > arc[n - 1] {
+                return true;
+            }
+            let pa = lumen_scene::geom::at_arc(&pts, &arc, a);
+            let pb = lumen_scene::geom::at_arc(&pts, &arc, b);
+            let pc = pts[i];
+            let (x, y, z) = ((pa - pc).norm(), (pb - pc).norm(), (pa - pb).norm());
+            let area2 = (pa - pc).cross(&(pb - pc)).norm();
+            area2 <= 1e-12 || x * y * z / (2.0 * area2) >= r
+        })
+        .collect()
+}
+
+/// The scene spec: the colon (body 0) and the scope (body 1, its points listed from the handle
+/// to the tip), the interior pair, and the scope against itself if [`SimParams::self_contact`].
+pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
+    let mut pairs = vec![PairSpec { a: SCOPE.into(), b: COLON.into(), kind: ContactKind::Interior }];
+    if sim.self_contact {
+        pairs.push(PairSpec { a: SCOPE.into(), b: SCOPE.into(), kind: ContactKind::SelfContact });
+    }
+    let mut spec = SceneSpec::new(
+        vec![
+            BodySpec { name: COLON.into(), shape: Shape::Tube { rings: tube.rings(), spokes: tube.spokes } },
+            BodySpec { name: SCOPE.into(), shape: Shape::Rod { points: rod.points, radius: vec![rod.radius_mm as f32] } },
+        ],
+        pairs,
+    );
+    spec.precision = sim.precision;
+    spec.margin = sim.margin_mm;
+    spec
+}

@@ -1,0 +1,642 @@
+//! The colon wall: it gives where the scope touches it and springs back elsewhere.
+//!
+//! **Units**: millimetres, seconds, kilograms (stiffnesses in N/m = kg/s^2, pressures in kPa).
+//!
+//! **Model.** The midline is anchored: ring control points never move. A wall tip `(i, k)`
+//! (ring `i`, spoke `k`) moves only outward along its rest spoke's unit direction `e_ik`:
+//! `tip = P_i + V_ik + u_ik e_ik`, which keeps every section star-shaped about its control
+//! point (what the detector needs) and the ring and spoke structure. The displacements `u` are
+//! not free per tip: they are interpolated from a coarse grid of *wall nodes* about
+//! [`WallParams::node_spacing_mm`] apart along and around the colon (node row `q` at ring
+//! `(q - 1) R`, node column `c` at spoke `c B / C`, periodic), by uniform quadratic B-splines in
+//! (ring index / R, spoke index C / B):
+//!
+//! `u_ik = sum_{a,b} beta(x - a) beta(y - b) U_ab`, `beta(f) = 3/4 - f^2` for `|f| <= 1/2`,
+//! `(3/2 - |f|)^2 / 2` for `1/2 <= |f| <= 3/2`: each tip depends on the 3 x 3 nodes around its
+//! nearest one, the weights sum to one, and the wall's displacement is C1 (no creases).
+//!
+//! A pushed wall therefore forms a smooth dimple at least two node spacings wide, as a wall
+//! under a 13 mm scope does, instead of a pocket between rings with flanks and creases where
+//! the contact normals turn from frame to frame and throw the scope about; and a frame solves
+//! a handful of nodes, not thousands of tips. Each node has the mass and the stiffness of its patch of wall
+//! (`m = rho_A A`, `k = K_p A`, `A` the node's area, `rho_A` the wall's areal mass, `K_p` the
+//! pressure needed per mm of displacement), and:
+//! - a spring to rest, `C = U`, compliance `1 / k`;
+//! - a membrane coupling to its four neighbour nodes, `C = U_a - U_b`, compliance
+//!   `1 / (c_m k)`, which spreads a deep bulge over neighbouring nodes;
+//! - a range `0 <= U <= u_max`: the wall is never pulled inwards, and stretches at most `u_max`
+//!   before what surrounds the colon stops it (what the hard push runs into);
+//! - strong linear velocity damping `c` (tissue is viscous): a bulge springs back with a time
+//!   constant of about `c m / k`, slowly enough for a frame's contacts to follow.
+//!
+//! The same XPBD substep as the rod: `V <- V / (1 + c h)`, `U <- U + V h`, one projection of
+//! each constraint (multipliers reset per substep), `V <- (U - U_prev) / h`.
+//!
+//! **Only what is touched is simulated.** Nodes start at rest and inactive. A node becomes
+//! active when a contact's tips depend on it ([`Wall::touch_tip`]) or when a neighbour is
+//! displaced by more than [`WallParams::spread_mm`] ([`Wall::settle`]); it goes back to rest
+//! (exactly `U = 0`) once untouched, nearly at rest, nearly still, and with no displaced
+//! neighbour. Active nodes live in a compact list in activation order (deterministic), found
+//! through a slot table; the state writer visits only the blocks of tips around active nodes
+//! (a block: the tips whose nearest node is the same) and rewrites to rest the blocks that were
+//! around them last frame.
+
+use crate::rod::V3;
+use lumen_detect::Tube;
+
+/// Slot value: the node is inactive (at rest).
+const INACTIVE: u32 = u32::MAX;
+/// Neighbour value: there is no neighbour (beyond the first or the last row of nodes).
+const NO_NEIGHBOUR: u32 = u32::MAX;
+/// Neighbour value: the neighbour exists but is at rest (immovable this frame).
+const AT_REST: u32 = u32::MAX - 1;
+
+/// The wall's physical parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallParams {
+    /// Spacing of the wall nodes along and around the colon, mm (default 8).
+    pub node_spacing_mm: f64,
+    /// Pressure per millimetre of outward displacement, kPa/mm (default 2: 1 N on a square
+    /// centimetre moves the wall 5 mm).
+    pub stiffness_kpa_per_mm: f64,
+    /// Stiffness of the coupling between neighbour nodes, as a fraction of a node's own
+    /// spring (default 1).
+    pub membrane_ratio: f64,
+    /// Mass per area of the wall and what moves with it, kg/m^2 (default 5: a 3 mm wall and
+    /// about as much again of tissue and fluid).
+    pub areal_mass_kg_m2: f64,
+    /// Velocity damping, 1/s (default 4000: strongly overdamped; a bulge springs back with a
+    /// time constant of about 10 ms).
+    pub damping_per_s: f64,
+    /// Largest outward displacement, mm (default 15).
+    pub max_out_mm: f64,
+    /// A neighbour of a node displaced by more than this is simulated too, mm (default 0.02).
+    pub spread_mm: f64,
+    /// An untouched node closer than this to rest and slower than this per millisecond goes
+    /// back to rest, mm (default 0.005).
+    pub rest_mm: f64,
+}
+
+impl Default for WallParams {
+    fn default() -> Self {
+        Self {
+            node_spacing_mm: 8.0,
+            stiffness_kpa_per_mm: 2.0,
+            membrane_ratio: 1.0,
+            areal_mass_kg_m2: 5.0,
+            damping_per_s: 4000.0,
+            max_out_mm: 15.0,
+            spread_mm: 0.02,
+            rest_mm: 0.005,
+        }
+    }
+}
+
+/// One active wall node.
+#[derive(Debug, Clone, Copy)]
+pub struct ActiveNode {
+    /// Node index `row * C + column`.
+    pub node: u32,
+    /// Outward displacement, mm.
+    pub u: f64,
+    /// Its rate, mm/s.
+    pub v: f64,
+    prev: f64,
+    /// Slots of the neighbours (row - 1, row + 1, column - 1, column + 1), or `AT_REST` /
+    /// `NO_NEIGHBOUR`.
+    nb: [u32; 4],
+    touched: bool,
+}
+
+/// The nine nodes a tip is interpolated from, and their weights (summing to one).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TipNodes {
+    pub nodes: [u32; 9],
+    pub weights: [f64; 9],
+}
+
+/// Quadratic B-spline weights of the nodes at offsets -1, 0, +1 from the nearest one, for a
+/// position `f` in [-1/2, 1/2] from it.
+#[inline]
+fn bspline3(f: f64) -> [f64; 3] {
+    [0.5 * (0.5 - f) * (0.5 - f), 0.75 - f * f, 0.5 * (0.5 + f) * (0.5 + f)]
+}
+
+/// The wall of one tube.
+#[derive(Debug, Clone)]
+pub struct Wall {
+    pub params: WallParams,
+    rings: usize,
+    spokes: usize,
+    /// Rings per node row (`R`).
+    per_row: usize,
+    /// Node rows: row `q` sits at ring `(q - 1) R` (one row of padding at either end).
+    rows: usize,
+    /// Node columns around the colon (`C`).
+    cols: usize,
+    /// Block rows (tips whose nearest node row is `q = r + 1`): their rings `start..end`.
+    block_rings: Vec<(u32, u32)>,
+    /// Block columns (tips whose nearest node column is `c`): their spokes.
+    block_spokes: Vec<Vec<u32>>,
+    node_mass: f64,
+    node_stiffness: f64,
+    /// Rest spokes, relative to their control point.
+    rest: Vec<[f32; 3]>,
+    slot: Vec<u32>,
+    active: Vec<ActiveNode>,
+    /// Blocks written last frame (their tips may differ from rest), and a stamp per block.
+    live: Vec<u32>,
+    next_live: Vec<u32>,
+    stamp: Vec<u32>,
+    epoch: u32,
+}
+
+fn norm3(a: [f32; 3]) -> f64 {
+    ((a[0] as f64).powi(2) + (a[1] as f64).powi(2) + (a[2] as f64).powi(2)).sqrt()
+}
+
+impl Wall {
+    /// The wall of `tube`, at rest.
+    pub fn new(tube: &Tube, params: WallParams) -> Self {
+        let (rings, spokes) = (tube.rings(), tube.spokes);
+        let spacing = {
+            let p = &tube.points;
+            let total: f64 = p.windows(2).map(|w| norm3([w[1][0] - w[0][0], w[1][1] - w[0][1], w[1][2] - w[0][2]])).sum();
+            (total / (rings - 1).max(1) as f64).max(1e-6)
+        };
+        let per_row = ((params.node_spacing_mm / spacing).round() as usize).clamp(1, rings.max(2) - 1);
+        let nearest_row = |i: usize| (2 * i + per_row) / (2 * per_row);
+        let block_rows = nearest_row(rings - 1) + 1;
+        let rows = block_rows + 2;
+        let mut block_rings = vec![(u32::MAX, 0u32); block_rows];
+        for i in 0..rings {
+            let b = &mut block_rings[nearest_row(i)];
+            b.0 = b.0.min(i as u32);
+            b.1 = b.1.max(i as u32 + 1);
+        }
+        let mut radii: Vec<f64> = tube.radial.iter().map(|&s| norm3(s)).collect();
+        radii.sort_by(f64::total_cmp);
+        let r_med = radii[radii.len() / 2];
+        let cols = ((std::f64::consts::TAU * r_med / params.node_spacing_mm).round() as usize).clamp(3, spokes);
+        let mut block_spokes = vec![Vec::new(); cols];
+        for k in 0..spokes {
+            block_spokes[Self::nearest_col(k, spokes, cols).0].push(k as u32);
+        }
+        let area = per_row as f64 * spacing * std::f64::consts::TAU * r_med / cols as f64;
+        let blocks = block_rows * cols;
+        Self {
+            node_mass: params.areal_mass_kg_m2 * 1e-6 * area,
+            node_stiffness: params.stiffness_kpa_per_mm * area,
+            params,
+            rings,
+            spokes,
+            per_row,
+            rows,
+            cols,
+            block_rings,
+            block_spokes,
+            rest: tube.radial.clone(),
+            slot: vec![INACTIVE; rows * cols],
+            active: Vec::new(),
+            live: Vec::new(),
+            next_live: Vec::new(),
+            stamp: vec![0; blocks],
+            epoch: 0,
+        }
+    }
+
+    /// Rings (control points).
+    pub fn rings(&self) -> usize {
+        self.rings
+    }
+
+    /// Spokes per ring.
+    pub fn spokes(&self) -> usize {
+        self.spokes
+    }
+
+    /// Node grid: rings per row, rows, columns.
+    pub fn grid(&self) -> (usize, usize, usize) {
+        (self.per_row, self.rows, self.cols)
+    }
+
+    /// Mass (kg) and spring stiffness (N/m) of one node.
+    pub fn node_mass_stiffness(&self) -> (f64, f64) {
+        (self.node_mass, self.node_stiffness)
+    }
+
+    /// The active nodes, in activation order.
+    pub fn active(&self) -> &[ActiveNode] {
+        &self.active
+    }
+
+    /// Slot of `node` in [`Wall::active`], if active.
+    pub fn slot_of(&self, node: u32) -> Option<usize> {
+        let s = self.slot[node as usize];
+        (s != INACTIVE).then_some(s as usize)
+    }
+
+    /// Largest outward displacement of any node, mm.
+    pub fn max_displacement(&self) -> f64 {
+        self.active.iter().map(|t| t.u).fold(0.0, f64::max)
+    }
+
+    /// True if every active node's state is finite.
+    pub fn is_finite(&self) -> bool {
+        self.active.iter().all(|t| t.u.is_finite() && t.v.is_finite())
+    }
+
+    /// Unit rest direction of tip `tip` (zero for a zero spoke).
+    pub fn tip_dir(&self, tip: u32) -> V3 {
+        let r = self.rest[tip as usize];
+        let v = V3::new(r[0] as f64, r[1] as f64, r[2] as f64);
+        v.try_normalize(0.0).unwrap_or_else(V3::zeros)
+    }
+
+    /// Nearest node column of spoke `k` and the spoke's offset from it, in columns.
+    fn nearest_col(k: usize, spokes: usize, cols: usize) -> (usize, f64) {
+        let pos = (k * cols) as f64 / spokes as f64;
+        let c = pos.round();
+        ((c as usize) % cols, pos - c)
+    }
+
+    /// Nearest node row (block row) of ring `i` and the ring's offset from it, in rows.
+    fn nearest_row(&self, i: usize) -> (usize, f64) {
+        let r = (2 * i + self.per_row) / (2 * self.per_row);
+        (r, i as f64 / self.per_row as f64 - r as f64)
+    }
+
+    /// The nine nodes tip `tip` is interpolated from, and their weights.
+    pub fn tip_nodes(&self, tip: u32) -> TipNodes {
+        let (i, k) = (tip as usize / self.spokes, tip as usize % self.spokes);
+        let (r, fr) = self.nearest_row(i);
+        let (c, fc) = Self::nearest_col(k, self.spokes, self.cols);
+        let (wr, wc) = (bspline3(fr), bspline3(fc));
+        let mut out = TipNodes { nodes: [0; 9], weights: [0.0; 9] };
+        for a in 0..3 {
+            let q = r + a; // node rows r - 1 + 1 .. r + 1 + 1
+            for b in 0..3 {
+                let col = (c + self.cols + b - 1) % self.cols;
+                out.nodes[3 * a + b] = (q * self.cols + col) as u32;
+                out.weights[3 * a + b] = wr[a] * wc[b];
+            }
+        }
+        out
+    }
+
+    /// Outward displacement of tip `tip` now, mm.
+    pub fn tip_displacement(&self, tip: u32) -> f64 {
+        let tn = self.tip_nodes(tip);
+        (0..9).filter(|&q| tn.weights[q] > 0.0).map(|q| tn.weights[q] * self.slot_of(tn.nodes[q]).map_or(0.0, |s| self.active[s].u)).sum()
+    }
+
+    /// Starts a frame: no node is touched yet.
+    pub fn begin_frame(&mut self) {
+        for t in &mut self.active {
+            t.touched = false;
+        }
+    }
+
+    /// Marks the nodes tip `tip` depends on as touched by a contact this frame, activating
+    /// them if needed.
+    pub fn touch_tip(&mut self, tip: u32) {
+        let tn = self.tip_nodes(tip);
+        for q in 0..9 {
+            if tn.weights[q] > 0.0 {
+                let s = self.activate(tn.nodes[q]);
+                self.active[s].touched = true;
+            }
+        }
+    }
+
+    /// Marks `node` as touched by a contact this frame, activating it if needed.
+    pub fn touch_node(&mut self, node: u32) {
+        let s = self.activate(node);
+        self.active[s].touched = true;
+    }
+
+    fn activate(&mut self, node: u32) -> usize {
+        let s = self.slot[node as usize];
+        if s != INACTIVE {
+            return s as usize;
+        }
+        let s = self.active.len();
+        self.active.push(ActiveNode { node, u: 0.0, v: 0.0, prev: 0.0, nb: [AT_REST; 4], touched: false });
+        self.slot[node as usize] = s as u32;
+        s
+    }
+
+    fn neighbours(&self, node: u32) -> [u32; 4] {
+        let c = self.cols as u32;
+        let (r, k) = (node / c, node % c);
+        [
+            if r > 0 { node - c } else { NO_NEIGHBOUR },
+            if (r as usize) + 1 < self.rows { node + c } else { NO_NEIGHBOUR },
+            r * c + (k + c - 1) % c,
+            r * c + (k + 1) % c,
+        ]
+    }
+
+    /// Between the contacts' [`Wall::touch_tip`] and the frame's substeps: activates the
+    /// neighbours of displaced nodes, releases nodes back at rest (`dt` the frame's length, s),
+    /// and links every active node to its neighbours' slots. Returns how many were released.
+    pub fn settle(&mut self, dt: f64) -> usize {
+        let spread = self.params.spread_mm;
+        let n = self.active.len();
+        for s in 0..n {
+            if self.active[s].u.abs() > spread {
+                for nb in self.neighbours(self.active[s].node) {
+                    if nb != NO_NEIGHBOUR {
+                        self.activate(nb);
+                    }
+                }
+            }
+        }
+        let rest = self.params.rest_mm;
+        let mut released = 0;
+        let mut s = 0;
+        while s < self.active.len() {
+            let t = self.active[s];
+            let quiet = !t.touched && t.u.abs() < rest && (t.v * dt).abs() < rest;
+            let calm = quiet
+                && self.neighbours(t.node).iter().all(|&nb| nb == NO_NEIGHBOUR || self.slot[nb as usize] == INACTIVE || self.active[self.slot[nb as usize] as usize].u.abs() <= spread);
+            if calm {
+                self.slot[t.node as usize] = INACTIVE;
+                self.active.swap_remove(s);
+                if s < self.active.len() {
+                    let moved = self.active[s].node;
+                    self.slot[moved as usize] = s as u32;
+                }
+                released += 1;
+            } else {
+                s += 1;
+            }
+        }
+        for s in 0..self.active.len() {
+            let nbs = self.neighbours(self.active[s].node);
+            let mut link = [NO_NEIGHBOUR; 4];
+            for (e, &nb) in nbs.iter().enumerate() {
+                if nb != NO_NEIGHBOUR {
+                    let sl = self.slot[nb as usize];
+                    link[e] = if sl == INACTIVE { AT_REST } else { sl };
+                }
+            }
+            self.active[s].nb = link;
+        }
+        released
+    }
+
+    /// Starts a substep of length `h`, s.
+    pub fn predict(&mut self, h: f64) {
+        let damp = 1.0 / (1.0 + self.params.damping_per_s * h);
+        for t in &mut self.active {
+            t.prev = t.u;
+            t.v *= damp;
+            t.u += t.v * h;
+        }
+    }
+
+    /// Inverse mass of a node, 1/kg.
+    pub fn node_inv_mass(&self) -> f64 {
+        1.0 / self.node_mass
+    }
+
+    /// Projects the springs, the membrane and the range once.
+    pub fn solve(&mut self, h: f64) {
+        let w = 1.0 / self.node_mass;
+        let ih2 = 1.0 / (h * h);
+        let a_spring = ih2 / self.node_stiffness;
+        let a_edge = ih2 / (self.params.membrane_ratio * self.node_stiffness).max(1e-12);
+        let spring = w / (w + a_spring);
+        let one_sided = w / (w + a_edge);
+        let two_sided = 1.0 / (2.0 * w + a_edge);
+        let hi = self.params.max_out_mm;
+        for s in 0..self.active.len() {
+            let u = self.active[s].u;
+            self.active[s].u = u - u * spring;
+            let nb = self.active[s].nb;
+            for &o in &nb {
+                if o == NO_NEIGHBOUR {
+                    continue;
+                }
+                if o == AT_REST {
+                    let ua = self.active[s].u;
+                    self.active[s].u = ua - ua * one_sided;
+                } else if (o as usize) > s {
+                    let (ua, ub) = (self.active[s].u, self.active[o as usize].u);
+                    let dl = -(ua - ub) * two_sided;
+                    self.active[s].u = ua + w * dl;
+                    self.active[o as usize].u = ub - w * dl;
+                }
+            }
+        }
+        for t in &mut self.active {
+            t.u = t.u.clamp(0.0, hi);
+        }
+    }
+
+    /// Ends a substep: rates from the displacements' change.
+    pub fn update_velocity(&mut self, h: f64) {
+        let inv_h = 1.0 / h;
+        for t in &mut self.active {
+            t.v = (t.u - t.prev) * inv_h;
+        }
+    }
+
+    /// Moves active node `slot` by `du`, within its range; returns the move made.
+    #[inline]
+    pub fn push(&mut self, slot: usize, du: f64) -> f64 {
+        let t = &mut self.active[slot];
+        let u = (t.u + du).clamp(0.0, self.params.max_out_mm);
+        let done = u - t.u;
+        t.u = u;
+        done
+    }
+
+    /// Displacement of active node `slot`, mm.
+    #[inline]
+    pub fn node_u(&self, slot: usize) -> f64 {
+        self.active[slot].u
+    }
+
+    /// Clamps every node's rate to `max` (mm/s); returns how many were clamped.
+    pub fn limit_speed(&mut self, max: f64) -> u32 {
+        let mut n = 0;
+        for t in &mut self.active {
+            if t.v.abs() > max {
+                t.v = t.v.clamp(-max, max);
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// Sets every node's rate to zero.
+    pub fn zero_velocities(&mut self) {
+        for t in &mut self.active {
+            t.v = 0.0;
+        }
+    }
+
+    /// Rate of active node `slot`, mm/s.
+    #[inline]
+    pub fn node_v(&self, slot: usize) -> f64 {
+        self.active[slot].v
+    }
+
+    /// Changes the rate of active node `slot` by `dv`, mm/s.
+    #[inline]
+    pub fn add_node_v(&mut self, slot: usize, dv: f64) {
+        self.active[slot].v += dv;
+    }
+
+    /// Whether active node `slot` can still move outwards.
+    #[inline]
+    pub fn can_move_out(&self, slot: usize) -> bool {
+        self.active[slot].u < self.params.max_out_mm
+    }
+
+    /// Calls `f(tip, spoke)` for every tip whose spoke may differ from what was written last
+    /// time: the tips of the blocks around active nodes (their current spokes) and, unless
+    /// `full` (the caller rewrites the whole rest colon itself), the tips of blocks that were
+    /// around active nodes last time and are not now (their rest spokes).
+    pub fn write_spokes(&mut self, full: bool, mut f: impl FnMut(u32, [f32; 3])) {
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            self.stamp.iter_mut().for_each(|s| *s = 0);
+            self.epoch = 1;
+        }
+        let (cols, block_rows) = (self.cols, self.block_rings.len());
+        self.next_live.clear();
+        for t in &self.active {
+            let (q, c) = (t.node as usize / cols, t.node as usize % cols);
+            // Node row q is used by block rows q - 2 ..= q.
+            for r in q.saturating_sub(2)..=q {
+                if r >= block_rows {
+                    continue;
+                }
+                for dc in [cols - 1, 0, 1] {
+                    let block = r * cols + (c + dc) % cols;
+                    if self.stamp[block] != self.epoch {
+                        self.stamp[block] = self.epoch;
+                        self.next_live.push(block as u32);
+                    }
+                }
+            }
+        }
+        if !full {
+            for &block in &self.live {
+                if self.stamp[block as usize] != self.epoch {
+                    self.for_block_tips(block, |tip| f(tip, self.rest[tip as usize]));
+                }
+            }
+        }
+        for &block in &self.next_live {
+            let (r, c) = (block as usize / cols, block as usize % cols);
+            let mut nodes = [0.0; 9];
+            for a in 0..3 {
+                for b in 0..3 {
+                    let node = (r + a) * cols + (c + cols + b - 1) % cols;
+                    nodes[3 * a + b] = self.slot_of(node as u32).map_or(0.0, |s| self.active[s].u);
+                }
+            }
+            let any = nodes.iter().any(|&u| u != 0.0);
+            self.for_block_tips(block, |tip| {
+                let r = self.rest[tip as usize];
+                if !any {
+                    return f(tip, r);
+                }
+                let (i, k) = (tip as usize / self.spokes, tip as usize % self.spokes);
+                let (wr, wc) = (bspline3(self.nearest_row(i).1), bspline3(Self::nearest_col(k, self.spokes, self.cols).1));
+                let mut u = 0.0;
+                for a in 0..3 {
+                    u += wr[a] * (wc[0] * nodes[3 * a] + wc[1] * nodes[3 * a + 1] + wc[2] * nodes[3 * a + 2]);
+                }
+                if u == 0.0 {
+                    f(tip, r);
+                } else {
+                    let d = self.tip_dir(tip) * u;
+                    f(tip, [r[0] + d.x as f32, r[1] + d.y as f32, r[2] + d.z as f32]);
+                }
+            });
+        }
+        std::mem::swap(&mut self.live, &mut self.next_live);
+    }
+
+    fn for_block_tips(&self, block: u32, mut f: impl FnMut(u32)) {
+        let (r, c) = (block as usize / self.cols, block as usize % self.cols);
+        let (i0, i1) = self.block_rings[r];
+        for i in i0..i1 {
+            for &k in &self.block_spokes[c] {
+                f(i * self.spokes as u32 + k);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tube() -> Tube {
+        let b = 32;
+        let ring = |_: usize| {
+            (0..b).map(|k| {
+                let a = k as f32 * std::f32::consts::TAU / b as f32;
+                [0.0, 25.0 * a.cos(), 25.0 * a.sin()]
+            })
+        };
+        Tube::new((0..100).map(|i| [i as f32 * 1.2, 0.0, 0.0]).collect(), (0..100).flat_map(ring).collect(), b).unwrap()
+    }
+
+    #[test]
+    fn blocks_cover_every_tip_once_and_weights_sum_to_one() {
+        let t = tube();
+        let w = Wall::new(&t, WallParams::default());
+        let (per_row, rows, cols) = w.grid();
+        assert_eq!(per_row, 7); // 8 mm / 1.2 mm
+        assert_eq!(cols, 20); // 2 pi 25 / 8
+        assert_eq!(rows, (2 * 99 + 7) / 14 + 3);
+        let mut seen = vec![0; t.radial.len()];
+        for block in 0..((rows - 2) * cols) as u32 {
+            w.for_block_tips(block, |tip| seen[tip as usize] += 1);
+        }
+        assert!(seen.iter().all(|&n| n == 1));
+        for tip in 0..t.radial.len() as u32 {
+            let tn = w.tip_nodes(tip);
+            assert!((tn.weights.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!(tn.weights.iter().all(|&x| x >= 0.0));
+        }
+    }
+
+    #[test]
+    fn a_pushed_node_springs_back_and_the_wall_is_rewritten_to_rest() {
+        let t = tube();
+        let mut w = Wall::new(&t, WallParams::default());
+        let h = 1e-3 / 16.0;
+        let tip = 50 * 32 + 3;
+        w.begin_frame();
+        w.touch_tip(tip);
+        w.settle(1e-3);
+        let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
+        w.push(s, 5.0);
+        let mut state: Vec<[f32; 3]> = t.radial.clone();
+        w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
+        assert!(w.tip_displacement(tip) > 1.0);
+        let mut frames = 0;
+        while !w.active().is_empty() {
+            w.begin_frame();
+            w.settle(1e-3);
+            for _ in 0..16 {
+                w.predict(h);
+                w.solve(h);
+                w.update_velocity(h);
+            }
+            w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
+            frames += 1;
+            assert!(frames < 2000, "never released");
+        }
+        w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
+        assert_eq!(state, t.radial);
+    }
+}

@@ -1,0 +1,176 @@
+//! The simulation's soundness: a rod at rest, a rod pushed into a straight tube, the scripted
+//! colonoscopy with the hard push on the generated colon, determinism, and the frame rate.
+
+use lumen_detect::Tube;
+use lumen_sim::{setup, Action, InProcess, Phase, Rod, RodParams, Script, SimConfig, World, V3};
+use std::time::Instant;
+
+/// A straight tube along +x: `rings` rings 1.2 mm apart, 32 spokes of `radius` mm.
+fn straight_tube(rings: usize, radius: f32) -> Tube {
+    let b = 32;
+    let ring = move |_: usize| {
+        (0..b).map(move |k| {
+            let a = k as f32 * std::f32::consts::TAU / b as f32;
+            [0.0, radius * a.cos(), radius * a.sin()]
+        })
+    };
+    Tube::new((0..rings).map(|i| [i as f32 * 1.2, 0.0, 0.0]).collect(), (0..rings).flat_map(ring).collect(), b).unwrap()
+}
+
+fn short_rod(length_mm: f64) -> RodParams {
+    RodParams { length_mm, points: (length_mm / 10.0).round() as usize + 1, ..RodParams::default() }
+}
+
+/// Points of a straight rod from `tip` towards -x, `rod.points` of them.
+fn rod_points(rod: &RodParams, tip: V3) -> Vec<V3> {
+    (0..rod.points).map(|i| tip - V3::x() * (rod.segment_mm() * i as f64)).collect()
+}
+
+fn hold_script(seconds: f64) -> Script {
+    Script { phases: vec![Phase { name: "hold", duration_s: seconds, action: Action::Hold }], repeat_from: 0, force_n: 15.0 }
+}
+
+#[test]
+fn a_straight_rod_at_rest_stays_straight_and_keeps_its_length() {
+    // Free: falling under gravity for one second, no contacts.
+    let mut rod = Rod::straight(RodParams::default(), V3::new(0.0, 0.0, 0.0), V3::x());
+    let l0 = rod.rest_length();
+    let h = 1e-3 / 16.0;
+    for step in 0..16_000 {
+        rod.predict(h, V3::new(0.0, -9810.0, 0.0));
+        rod.solve_bend(h);
+        rod.solve_stretch(h, step % 2 == 1);
+        rod.update_velocity(h);
+    }
+    let (len, dev) = (rod.length(), rod.max_deviation_from_chord());
+    eprintln!("free fall 1 s: fell {:.0} mm, length error {:.2e}, deviation from straight {dev:.2e} mm", -rod.x[0].y, len / l0 - 1.0);
+    assert!((len / l0 - 1.0).abs() < 1e-3);
+    assert!(dev < 1e-6, "{dev}");
+
+    // Lying on the bottom of a straight colon under gravity, the operator holding the handle.
+    let tube = straight_tube(400, 20.0);
+    let params = short_rod(300.0);
+    let pts = rod_points(&params, V3::new(380.0, -13.5, 0.0));
+    let config = SimConfig { rod: params, script: hold_script(1.0), ..SimConfig::default() };
+    let spec = setup::scene_spec(&tube, &config.rod, &config.sim);
+    let mut world = World::with_rod(&tube, config, InProcess::new(&spec).unwrap(), pts).unwrap();
+    for _ in 0..500 {
+        let r = world.step().unwrap();
+        assert_eq!(r.escaped, 0);
+        assert!(r.max_penetration_mm <= 1.0, "{r:?}");
+    }
+    let rod = world.rod();
+    let (err, dev) = (rod.length() / rod.rest_length() - 1.0, rod.max_deviation_from_chord());
+    eprintln!("resting in a straight tube 0.5 s: length error {err:.2e}, deviation from straight {dev:.3} mm, wall {:.3} mm", world.report().max_wall_mm);
+    assert!(err.abs() < 1e-3, "{err}");
+    assert!(dev < 0.5, "{dev}");
+}
+
+#[test]
+fn a_rod_pushed_into_a_straight_tube_is_held_inside() {
+    // 480 mm of tube of radius 20 mm; a 500 mm scope inserted 250 mm, pushed in at 250 mm/s
+    // with up to 40 N while its tip is held: it buckles against the wall.
+    let tube = straight_tube(400, 20.0);
+    let params = short_rod(500.0);
+    let pts = rod_points(&params, V3::new(250.0, 0.0, 0.0));
+    let script = Script {
+        phases: vec![
+            Phase { name: "settle", duration_s: 0.05, action: Action::Hold },
+            Phase { name: "hard push", duration_s: 0.6, action: Action::Push { mm_per_s: 250.0, force_n: 40.0, hold_tip: true } },
+        ],
+        repeat_from: 1,
+        force_n: 15.0,
+    };
+    let config = SimConfig { rod: params, script, ..SimConfig::default() };
+    let spec = setup::scene_spec(&tube, &config.rod, &config.sim);
+    let mut world = World::with_rod(&tube, config, InProcess::new(&spec).unwrap(), pts).unwrap();
+    let (mut pen, mut wall, mut force, mut touching) = (0.0f32, 0.0f32, 0.0f64, 0u32);
+    for _ in 0..650 {
+        let r = world.step().unwrap();
+        assert_eq!(r.escaped, 0, "{r:?}");
+        assert!(r.max_penetration_mm <= 1.0, "{r:?}");
+        pen = pen.max(r.max_penetration_mm);
+        wall = wall.max(r.max_wall_mm);
+        force = force.max(r.hand_force_n);
+        touching = touching.max(r.touching);
+    }
+    let r = world.report();
+    eprintln!(
+        "straight tube push: max penetration {pen:.3} mm, wall displaced up to {wall:.2} mm, hand force up to {force:.1} N, up to {touching} samples touching; handle moved to {:.1} mm",
+        r.handle_mm
+    );
+    // The push was hard: the hand reached its limit and the wall gave.
+    assert!(force > 30.0 && wall > 2.0 && touching > 10);
+}
+
+/// The default manoeuvre compressed into 0.6 s (600 frames), ending with the hard push.
+fn short_script() -> Script {
+    let p = |name, duration_s, action| Phase { name, duration_s, action };
+    Script {
+        phases: vec![
+            p("settle", 0.05, Action::Hold),
+            p("insert", 0.1, Action::Insert { mm_per_s: 40.0 }),
+            p("pull back", 0.05, Action::Insert { mm_per_s: -40.0 }),
+            p("angulate", 0.03, Action::Angulate { to_deg: 60.0 }),
+            p("twist", 0.06, Action::Twist { deg_per_s: 900.0 }),
+            p("twist back", 0.06, Action::Twist { deg_per_s: -900.0 }),
+            p("straighten", 0.03, Action::Angulate { to_deg: 0.0 }),
+            p("hard push", 0.22, Action::Push { mm_per_s: 250.0, force_n: 40.0, hold_tip: true }),
+        ],
+        repeat_from: 1,
+        force_n: 15.0,
+    }
+}
+
+#[test]
+fn the_scripted_hard_push_on_the_generated_colon_stays_inside_and_is_deterministic() {
+    let colon = setup::generated_colon(1, 1500.0);
+    let config = SimConfig { script: short_script(), sim: lumen_sim::SimParams { relax_s: 0.05, ..Default::default() }, ..SimConfig::default() };
+    let run = |frames: usize| {
+        let mut world = World::in_process(&colon, config.clone()).unwrap();
+        let mut worst = (0.0f32, 0u64);
+        let mut force = 0.0f64;
+        for _ in 0..frames {
+            let r = world.step().unwrap_or_else(|e| panic!("{e}"));
+            assert!(!r.nan);
+            assert_eq!(r.escaped, 0, "frame {} ({}): {r:?}", r.frame, r.phase_name);
+            assert!(r.max_penetration_mm <= 1.0, "frame {} ({}): {r:?}", r.frame, r.phase_name);
+            if r.max_penetration_mm > worst.0 {
+                worst = (r.max_penetration_mm, r.frame);
+            }
+            force = force.max(r.hand_force_n);
+        }
+        eprintln!("{frames} frames: max penetration {:.3} mm (frame {}), hand force up to {force:.1} N", worst.0, worst.1);
+        (world.rod().x.clone(), world.report().clone(), force)
+    };
+    let (a, ra, force) = run(600);
+    assert!(force > 30.0, "the hard push pushed hard: {force:.1} N");
+    let (b, rb, _) = run(600);
+    let bits = |x: &[V3]| x.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
+    assert_eq!(bits(&a), bits(&b), "two runs differ");
+    assert_eq!((ra.contacts, ra.max_penetration_mm.to_bits(), ra.active_nodes), (rb.contacts, rb.max_penetration_mm.to_bits(), rb.active_nodes));
+}
+
+#[test]
+fn frame_rate_on_the_full_generated_colon() {
+    // Measured, not asserted (CI machines vary); the target is 500+ frames/s in release.
+    let colon = setup::generated_colon(1, 1500.0);
+    let mut world = World::in_process(&colon, SimConfig::default()).unwrap();
+    let frames = 1000;
+    let t = Instant::now();
+    let (mut physics, mut detect) = (0.0, 0.0);
+    for _ in 0..frames {
+        let r = world.step().unwrap();
+        physics += r.physics_s;
+        detect += r.detect_s;
+    }
+    let s = t.elapsed().as_secs_f64();
+    eprintln!(
+        "full generated colon, {frames} frames: {:.0} frames/s ({:.0} us/frame: physics {:.0} us, detection {:.0} us){}",
+        frames as f64 / s,
+        s / frames as f64 * 1e6,
+        physics / frames as f64 * 1e6,
+        detect / frames as f64 * 1e6,
+        if cfg!(debug_assertions) { " [debug assertions on]" } else { "" }
+    );
+}
