@@ -35,10 +35,18 @@ pub fn generated_colon(seed: u64, length_mm: f32) -> Tube {
 /// The GCA colon from `dir` (default: `../shared/data/colon-gca00090` beside the workspace),
 /// 32 spokes every 1 mm, inflated twice; the error says what is missing.
 pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, String> {
+    gca_colon_inflated(dir, GCA_INFLATE)
+}
+
+/// The GCA colon's default inflation (the scan is not insufflated).
+pub const GCA_INFLATE: f32 = 2.0;
+
+/// [`gca_colon`] with another inflation factor.
+pub fn gca_colon_inflated(dir: Option<&Path>, inflate: f32) -> Result<Tube, String> {
     let (mesh, line) = gca_paths(dir)?;
     let mesh = load_mesh(&mesh).map_err(|e| e.to_string())?;
     let line = load_centerline_csv(&line).map_err(|e| e.to_string())?;
-    let params = ImportParams { spokes: 32, ring_spacing: 1.0, inflate: 2.0, ..Default::default() };
+    let params = ImportParams { spokes: 32, ring_spacing: 1.0, inflate, ..Default::default() };
     build_tube(&mesh, &line, &params).map(|(t, _)| t).map_err(|e| e.to_string())
 }
 

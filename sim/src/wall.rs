@@ -138,6 +138,12 @@ pub struct Wall {
     block_rings: Vec<(u32, u32)>,
     /// Block columns (tips whose nearest node column is `c`): their spokes.
     block_spokes: Vec<Vec<u32>>,
+    /// Per ring: nearest node row and the B-spline weights of rows `r - 1 ..= r + 1`.
+    ring_w: Vec<(u32, [f64; 3])>,
+    /// Per spoke: nearest node column and the weights of columns `c - 1 ..= c + 1`.
+    spoke_w: Vec<(u32, [f64; 3])>,
+    /// Unit rest direction of every tip.
+    dir: Vec<[f32; 3]>,
     node_mass: f64,
     node_stiffness: f64,
     /// Rest spokes, relative to their control point.
@@ -184,6 +190,26 @@ impl Wall {
         }
         let area = per_row as f64 * spacing * std::f64::consts::TAU * r_med / cols as f64;
         let blocks = block_rows * cols;
+        let ring_w = (0..rings)
+            .map(|i| {
+                let r = nearest_row(i);
+                (r as u32, bspline3(i as f64 / per_row as f64 - r as f64))
+            })
+            .collect();
+        let spoke_w = (0..spokes)
+            .map(|k| {
+                let (c, f) = Self::nearest_col(k, spokes, cols);
+                (c as u32, bspline3(f))
+            })
+            .collect();
+        let dir = tube
+            .radial
+            .iter()
+            .map(|&v| {
+                let l = norm3(v);
+                if l > 0.0 { [(v[0] as f64 / l) as f32, (v[1] as f64 / l) as f32, (v[2] as f64 / l) as f32] } else { [0.0; 3] }
+            })
+            .collect();
         Self {
             node_mass: params.areal_mass_kg_m2 * 1e-6 * area,
             node_stiffness: params.stiffness_kpa_per_mm * area,
@@ -195,6 +221,9 @@ impl Wall {
             cols,
             block_rings,
             block_spokes,
+            ring_w,
+            spoke_w,
+            dir,
             rest: tube.radial.clone(),
             slot: vec![INACTIVE; rows * cols],
             active: Vec::new(),
@@ -248,9 +277,8 @@ impl Wall {
 
     /// Unit rest direction of tip `tip` (zero for a zero spoke).
     pub fn tip_dir(&self, tip: u32) -> V3 {
-        let r = self.rest[tip as usize];
-        let v = V3::new(r[0] as f64, r[1] as f64, r[2] as f64);
-        v.try_normalize(0.0).unwrap_or_else(V3::zeros)
+        let d = self.dir[tip as usize];
+        V3::new(d[0] as f64, d[1] as f64, d[2] as f64)
     }
 
     /// Nearest node column of spoke `k` and the spoke's offset from it, in columns.
@@ -260,18 +288,12 @@ impl Wall {
         ((c as usize) % cols, pos - c)
     }
 
-    /// Nearest node row (block row) of ring `i` and the ring's offset from it, in rows.
-    fn nearest_row(&self, i: usize) -> (usize, f64) {
-        let r = (2 * i + self.per_row) / (2 * self.per_row);
-        (r, i as f64 / self.per_row as f64 - r as f64)
-    }
-
     /// The nine nodes tip `tip` is interpolated from, and their weights.
     pub fn tip_nodes(&self, tip: u32) -> TipNodes {
         let (i, k) = (tip as usize / self.spokes, tip as usize % self.spokes);
-        let (r, fr) = self.nearest_row(i);
-        let (c, fc) = Self::nearest_col(k, self.spokes, self.cols);
-        let (wr, wc) = (bspline3(fr), bspline3(fc));
+        let (r, wr) = self.ring_w[i];
+        let (c, wc) = self.spoke_w[k];
+        let (r, c) = (r as usize, c as usize);
         let mut out = TipNodes { nodes: [0; 9], weights: [0.0; 9] };
         for a in 0..3 {
             let q = r + a; // node rows r - 1 + 1 .. r + 1 + 1
@@ -541,24 +563,32 @@ impl Wall {
                 }
             }
             let any = nodes.iter().any(|&u| u != 0.0);
-            self.for_block_tips(block, |tip| {
-                let r = self.rest[tip as usize];
-                if !any {
-                    return f(tip, r);
+            let (i0, i1) = self.block_rings[r];
+            for i in i0..i1 {
+                let wr = self.ring_w[i as usize].1;
+                // Row-weighted node values: then one 3-term sum per tip.
+                let row = [
+                    wr[0] * nodes[0] + wr[1] * nodes[3] + wr[2] * nodes[6],
+                    wr[0] * nodes[1] + wr[1] * nodes[4] + wr[2] * nodes[7],
+                    wr[0] * nodes[2] + wr[1] * nodes[5] + wr[2] * nodes[8],
+                ];
+                for &k in &self.block_spokes[c] {
+                    let tip = i * self.spokes as u32 + k;
+                    let rest = self.rest[tip as usize];
+                    if !any {
+                        f(tip, rest);
+                        continue;
+                    }
+                    let wc = self.spoke_w[k as usize].1;
+                    let u = (wc[0] * row[0] + wc[1] * row[1] + wc[2] * row[2]) as f32;
+                    if u == 0.0 {
+                        f(tip, rest);
+                    } else {
+                        let d = self.dir[tip as usize];
+                        f(tip, [rest[0] + d[0] * u, rest[1] + d[1] * u, rest[2] + d[2] * u]);
+                    }
                 }
-                let (i, k) = (tip as usize / self.spokes, tip as usize % self.spokes);
-                let (wr, wc) = (bspline3(self.nearest_row(i).1), bspline3(Self::nearest_col(k, self.spokes, self.cols).1));
-                let mut u = 0.0;
-                for a in 0..3 {
-                    u += wr[a] * (wc[0] * nodes[3 * a] + wc[1] * nodes[3 * a + 1] + wc[2] * nodes[3 * a + 2]);
-                }
-                if u == 0.0 {
-                    f(tip, r);
-                } else {
-                    let d = self.tip_dir(tip) * u;
-                    f(tip, [r[0] + d.x as f32, r[1] + d.y as f32, r[2] + d.z as f32]);
-                }
-            });
+            }
         }
         std::mem::swap(&mut self.live, &mut self.next_live);
     }

@@ -73,6 +73,12 @@ impl InProcess {
         Ok(Self { detector, state, written: false })
     }
 
+    /// Sets the detector's axial re-projections ([`Detector::set_refine`]).
+    pub fn with_refine(mut self, refine: u32) -> Self {
+        self.detector.set_refine(refine);
+        self
+    }
+
     /// The detector (for its statistics).
     pub fn detector(&self) -> &Detector {
         &self.detector
@@ -151,6 +157,14 @@ pub struct SimParams {
     pub bending_section_points: usize,
     /// Contact projections per substep (default 2).
     pub contact_passes: u32,
+    /// Stretch projections per substep, alternating sweep directions (default 2: a second
+    /// sweep from the other end carries the hand's push along the whole scope).
+    pub stretch_passes: u32,
+    /// Axial re-projections of the in-process detector ([`Detector::set_refine`]; default 0,
+    /// as the daemon runs). 1 sees folds and bulge flanks ahead of a sample sooner (the
+    /// deepest penetration of the default 3 s run drops from 0.89 to 0.76 mm) for about 30%
+    /// more detection time.
+    pub refine: u32,
     /// Speed limit of scope points and wall nodes, mm/s (default 1000; 0: none). A
     /// colonoscope's motions stay far below it; it keeps a frame's motion within about the
     /// detection margin, so conflicting contacts (where the tube model is ambiguous) cannot
@@ -176,6 +190,8 @@ impl Default for SimParams {
             hold_stiffness_n_per_m: 5000.0,
             bending_section_points: 10,
             contact_passes: 2,
+            stretch_passes: 2,
+            refine: 0,
             relax_s: 0.15,
             max_speed_mm_s: 1000.0,
         }
@@ -313,7 +329,7 @@ impl World<InProcess> {
     /// [`setup::insertion_pose`].
     pub fn in_process(tube: &Tube, config: SimConfig) -> Result<Self, SimError> {
         let spec = setup::scene_spec(tube, &config.rod, &config.sim);
-        let source = InProcess::new(&spec).map_err(SimError::Spec)?;
+        let source = InProcess::new(&spec).map_err(SimError::Spec)?.with_refine(config.sim.refine);
         Self::new(tube, config, source)
     }
 }
@@ -584,7 +600,9 @@ impl<S: ContactSource> World<S> {
             }
             self.guide();
             self.rod.solve_bend(h);
-            self.rod.solve_stretch(h, sub % 2 == 1);
+            for pass in 0..p.stretch_passes.max(1) {
+                self.rod.solve_stretch(h, (sub + pass) % 2 == 1);
+            }
             self.wall.solve(h);
             self.contacts.begin_substep();
             for _ in 0..p.contact_passes {
