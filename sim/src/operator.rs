@@ -72,6 +72,27 @@ impl Script {
         }
     }
 
+    /// [`Script::colonoscopy`] compressed into 0.6 s (600 frames at 1 kHz), for tests: settle
+    /// 50 ms, insert 100 ms, pull back 50 ms, angulate, twist 54 degrees and back, straighten,
+    /// then 220 ms of the hard push.
+    pub fn short_colonoscopy() -> Self {
+        let p = |name, duration_s, action| Phase { name, duration_s, action };
+        Self {
+            phases: vec![
+                p("settle", 0.05, Action::Hold),
+                p("insert", 0.1, Action::Insert { mm_per_s: 40.0 }),
+                p("pull back", 0.05, Action::Insert { mm_per_s: -40.0 }),
+                p("angulate", 0.03, Action::Angulate { to_deg: 60.0 }),
+                p("twist", 0.06, Action::Twist { deg_per_s: 900.0 }),
+                p("twist back", 0.06, Action::Twist { deg_per_s: -900.0 }),
+                p("straighten", 0.03, Action::Angulate { to_deg: 0.0 }),
+                p("hard push", 0.22, Action::Push { mm_per_s: 250.0, force_n: 40.0, hold_tip: true }),
+            ],
+            repeat_from: 1,
+            force_n: 15.0,
+        }
+    }
+
     /// Total duration of one pass, s.
     pub fn duration_s(&self) -> f64 {
         self.phases.iter().map(|p| p.duration_s).sum()

@@ -103,29 +103,10 @@ fn a_rod_pushed_into_a_straight_tube_is_held_inside() {
     assert!(force > 30.0 && wall > 2.0 && touching > 10);
 }
 
-/// The default manoeuvre compressed into 0.6 s (600 frames), ending with the hard push.
-fn short_script() -> Script {
-    let p = |name, duration_s, action| Phase { name, duration_s, action };
-    Script {
-        phases: vec![
-            p("settle", 0.05, Action::Hold),
-            p("insert", 0.1, Action::Insert { mm_per_s: 40.0 }),
-            p("pull back", 0.05, Action::Insert { mm_per_s: -40.0 }),
-            p("angulate", 0.03, Action::Angulate { to_deg: 60.0 }),
-            p("twist", 0.06, Action::Twist { deg_per_s: 900.0 }),
-            p("twist back", 0.06, Action::Twist { deg_per_s: -900.0 }),
-            p("straighten", 0.03, Action::Angulate { to_deg: 0.0 }),
-            p("hard push", 0.22, Action::Push { mm_per_s: 250.0, force_n: 40.0, hold_tip: true }),
-        ],
-        repeat_from: 1,
-        force_n: 15.0,
-    }
-}
-
 #[test]
 fn the_scripted_hard_push_on_the_generated_colon_stays_inside_and_is_deterministic() {
     let colon = setup::generated_colon(1, 1500.0);
-    let config = SimConfig { script: short_script(), sim: lumen_sim::SimParams { relax_s: 0.05, ..Default::default() }, ..SimConfig::default() };
+    let config = SimConfig { script: Script::short_colonoscopy(), sim: lumen_sim::SimParams { relax_s: 0.05, ..Default::default() }, ..SimConfig::default() };
     let run = |frames: usize| {
         let mut world = World::in_process(&colon, config.clone()).unwrap();
         let mut worst = (0.0f32, 0u64);

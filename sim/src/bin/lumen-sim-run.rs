@@ -5,6 +5,8 @@
 //! lumen-sim-run [--frames N] [--scene generated|gca] [--data DIR] [--inflate F] [--seed S]
 //!               [--length MM] [--every K] [--no-self] [--substeps N] [--refine N]
 //!               [--stretch-passes N] [--max-speed MM_S] [--margin MM] [--wall-max MM]
+//!               [--wall-node MM] [--wall-membrane RATIO] [--wall-stiffness KPA_PER_MM]
+//!               [--script default|short] [--relax S] [--trace-pen MM]
 //! ```
 
 use lumen_sim::{setup, SimConfig, World};
@@ -18,6 +20,7 @@ fn main() {
     let mut seed = 1u64;
     let mut length = 1500.0f32;
     let mut every = 0u64;
+    let mut trace_pen: Option<f32> = None;
     let mut config = SimConfig::default();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -30,6 +33,13 @@ fn main() {
             "--seed" => seed = val().parse().expect("--seed S"),
             "--length" => length = val().parse().expect("--length MM"),
             "--every" => every = val().parse().expect("--every K"),
+            "--trace-pen" => trace_pen = Some(val().parse().expect("--trace-pen MM")),
+            "--script" => match val().as_str() {
+                "default" => config.script = lumen_sim::Script::colonoscopy(),
+                "short" => config.script = lumen_sim::Script::short_colonoscopy(),
+                other => panic!("unknown script {other} (default or short)"),
+            },
+            "--relax" => config.sim.relax_s = val().parse().expect("--relax S"),
             "--no-self" => config.sim.self_contact = false,
             "--substeps" => config.sim.substeps = val().parse().expect("--substeps N"),
             "--refine" => config.sim.refine = val().parse().expect("--refine N"),
@@ -37,6 +47,9 @@ fn main() {
             "--max-speed" => config.sim.max_speed_mm_s = val().parse().expect("--max-speed MM_S"),
             "--margin" => config.sim.margin_mm = val().parse().expect("--margin MM"),
             "--wall-max" => config.wall.max_out_mm = val().parse().expect("--wall-max MM"),
+            "--wall-node" => config.wall.node_spacing_mm = val().parse().expect("--wall-node MM"),
+            "--wall-membrane" => config.wall.membrane_ratio = val().parse().expect("--wall-membrane RATIO"),
+            "--wall-stiffness" => config.wall.stiffness_kpa_per_mm = val().parse().expect("--wall-stiffness KPA_PER_MM"),
             other => {
                 eprintln!("unknown argument {other}");
                 std::process::exit(2);
@@ -84,6 +97,7 @@ fn main() {
     let (mut limited_frames, mut body_flagged, mut physics, mut detect) = (0u64, 0u32, 0.0f64, 0.0f64);
     let t = Instant::now();
     for _ in 0..frames {
+        let before: Vec<lumen_proto::Contact> = if trace_pen.is_some() { world.contacts().to_vec() } else { Vec::new() };
         let r = match world.step() {
             Ok(r) => r.clone(),
             Err(e) => {
@@ -93,6 +107,23 @@ fn main() {
         };
         physics += r.physics_s;
         detect += r.detect_s;
+        if trace_pen.is_some_and(|t| r.max_penetration_mm > t) {
+            // The deepest contact, and what the same sample had at the frame's start.
+            let c = world.contacts().iter().find(|c| c.sample == r.deepest_sample && c.kind == 0).expect("deepest contact");
+            let was = before.iter().find(|p| p.sample == c.sample && p.kind == 0);
+            println!(
+                "frame {} ({}): sample {} depth {:.3} mm flags {} normal {:?} at ring {} spoke {}; at the frame's start: {}",
+                r.frame,
+                r.phase_name,
+                c.sample,
+                c.depth,
+                c.flags,
+                c.normal,
+                c.index_b,
+                c.spoke_b,
+                was.map_or("no contact".to_string(), |p| format!("depth {:.3} mm normal {:?} at ring {} spoke {}", p.depth, p.normal, p.index_b, p.spoke_b))
+            );
+        }
         if r.max_penetration_mm > pen {
             (pen, worst_frame) = (r.max_penetration_mm, r.frame);
         }
