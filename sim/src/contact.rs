@@ -49,8 +49,10 @@ use lumen_proto::{Contact, ContactKind};
 /// Most wall nodes one contact's four tips (two rings, two spokes) depend on: 4 x 4.
 const MAX_NODES: usize = 16;
 
-/// The other side of a contact constraint.
+/// The other side of a contact constraint (kept inline: the constraints are projected
+/// several times per substep and read straight through).
 #[derive(Debug, Clone, Copy)]
+#[allow(clippy::large_enum_variant)]
 enum Other {
     /// Wall nodes: their indices, their slots in the wall's active list this frame, and `G_m`.
     Wall { n: u8, nodes: [u32; MAX_NODES], slots: [u32; MAX_NODES], g: [f64; MAX_NODES] },
@@ -204,7 +206,7 @@ impl ContactSet {
             let (j, t) = Self::rod_place(c, last);
             let n = v3(c.normal);
             let nn = n.norm();
-            if !(nn > 0.5) {
+            if nn.is_nan() || nn <= 0.5 {
                 continue;
             }
             let n = n / nn;

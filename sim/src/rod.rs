@@ -289,8 +289,8 @@ impl Rod {
         // |x_{i-1} - 2 x_i + x_{i+1}| = 2 l0 sin(theta / 2) for equal segments turning by theta,
         // pointing to the inside of the bend.
         let mag = 2.0 * self.rest_len * (0.5 * theta).sin();
-        for i in 1..=section {
-            self.rest_bend[i] = normals[i] * mag;
+        for (d, n) in self.rest_bend[1..=section].iter_mut().zip(&normals[1..=section]) {
+            *d = n * mag;
         }
     }
 }

@@ -297,12 +297,12 @@ impl Wall {
         let (c, wc) = self.spoke_w[k];
         let (r, c) = (r as usize, c as usize);
         let mut out = TipNodes { nodes: [0; 9], weights: [0.0; 9] };
-        for a in 0..3 {
+        for (a, &w_row) in wr.iter().enumerate() {
             let q = r + a; // node rows r - 1 + 1 .. r + 1 + 1
-            for b in 0..3 {
+            for (b, &w_col) in wc.iter().enumerate() {
                 let col = (c + self.cols + b - 1) % self.cols;
                 out.nodes[3 * a + b] = (q * self.cols + col) as u32;
-                out.weights[3 * a + b] = wr[a] * wc[b];
+                out.weights[3 * a + b] = w_row * w_col;
             }
         }
         out

@@ -2,7 +2,8 @@
 //! colonoscopy with the hard push on the generated colon, determinism, and the frame rate.
 
 use lumen_detect::Tube;
-use lumen_sim::{setup, Action, InProcess, Phase, Rod, RodParams, Script, SimConfig, World, V3};
+use lumen_proto::Contact;
+use lumen_sim::{setup, Action, FnSource, InProcess, Phase, Rod, RodParams, Script, SimConfig, SourceError, World, V3};
 use std::time::Instant;
 
 /// A straight tube along +x: `rings` rings 1.2 mm apart, 32 spokes of `radius` mm.
@@ -130,6 +131,34 @@ fn the_scripted_hard_push_on_the_generated_colon_stays_inside_and_is_determinist
     let bits = |x: &[V3]| x.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
     assert_eq!(bits(&a), bits(&b), "two runs differ");
     assert_eq!((ra.contacts, ra.max_penetration_mm.to_bits(), ra.active_nodes), (rb.contacts, rb.max_penetration_mm.to_bits(), rb.active_nodes));
+}
+
+#[test]
+fn a_closure_source_gives_the_same_run_as_in_process_detection() {
+    // The seam the daemon client plugs into: a closure that detects on the state it is given.
+    let colon = setup::generated_colon(2, 1500.0);
+    let config = SimConfig { script: Script::short_colonoscopy(), ..SimConfig::default() };
+    let spec = setup::scene_spec(&colon, &config.rod, &config.sim);
+    let mut detector = lumen_detect::Detector::new(&spec).unwrap();
+    let floats = detector.layout().floats;
+    let calls = std::rc::Rc::new(std::cell::Cell::new(0u32));
+    let counted = calls.clone();
+    let source = FnSource::new(floats, move |state: &[f32], out: &mut Vec<Contact>| -> Result<(), SourceError> {
+        counted.set(counted.get() + 1);
+        out.clear();
+        out.extend_from_slice(detector.detect(state)?);
+        Ok(())
+    });
+    let mut a = World::in_process(&colon, config.clone()).unwrap();
+    let mut b = World::new(&colon, config, source).unwrap();
+    let start = calls.get();
+    for _ in 0..200 {
+        let (ra, rb) = (a.step().unwrap().clone(), b.step().unwrap().clone());
+        assert_eq!((ra.contacts, ra.max_penetration_mm.to_bits(), ra.escaped), (rb.contacts, rb.max_penetration_mm.to_bits(), rb.escaped));
+    }
+    assert_eq!(calls.get() - start, 200, "one detection per frame");
+    let bits = |w: &[V3]| w.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
+    assert_eq!(bits(&a.rod().x), bits(&b.rod().x));
 }
 
 #[test]
