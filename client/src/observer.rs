@@ -22,16 +22,16 @@ pub struct Observer {
 }
 
 enum Inner {
-    Local(LocalObserver),
-    Zenoh(ZenohObserver),
+    Local(Box<LocalObserver>),
+    Zenoh(Box<ZenohObserver>),
 }
 
 impl Observer {
     pub(crate) fn from_local(o: LocalObserver) -> Self {
-        Self { inner: Inner::Local(o) }
+        Self { inner: Inner::Local(Box::new(o)) }
     }
     pub(crate) fn from_zenoh(o: ZenohObserver) -> Self {
-        Self { inner: Inner::Zenoh(o) }
+        Self { inner: Inner::Zenoh(Box::new(o)) }
     }
 
     /// The observed session.

@@ -17,16 +17,16 @@ pub struct Session {
 }
 
 enum Inner {
-    Local(LocalSession),
-    Zenoh(ZenohSession),
+    Local(Box<LocalSession>),
+    Zenoh(Box<ZenohSession>),
 }
 
 impl Session {
     pub(crate) fn from_local(s: LocalSession) -> Self {
-        Self { inner: Inner::Local(s) }
+        Self { inner: Inner::Local(Box::new(s)) }
     }
     pub(crate) fn from_zenoh(s: ZenohSession) -> Self {
-        Self { inner: Inner::Zenoh(s) }
+        Self { inner: Inner::Zenoh(Box::new(s)) }
     }
 
     /// The session id (changes when the session reopens after a daemon restart).

@@ -296,7 +296,7 @@ impl FrameHeader {
 pub fn decode_frame(bytes: &[u8], session: u64, layout: &StateLayout, state: &mut Vec<f32>) -> Result<FrameHeader, (FrameHeader, FrameError)> {
     let header = FrameHeader::read(bytes).map_err(|e| (FrameHeader::default(), e))?;
     let body = &bytes[FRAME_HEADER_BYTES..];
-    if body.len() % 4 != 0 {
+    if !body.len().is_multiple_of(4) {
         return Err((header, FrameError::Ragged { bytes: body.len() }));
     }
     header.check(session, layout, body.len() / 4).map_err(|e| (header, e))?;

@@ -45,6 +45,7 @@ pub fn session_bytes(floats: usize, max_contacts: usize, observers: usize) -> us
 }
 
 /// Decodes a request; a reply is returned for anything unreadable.
+#[allow(clippy::result_large_err)] // the error is the reply itself, built once per request
 pub fn decode(bytes: &[u8]) -> Result<ControlRequest, ControlReply> {
     if bytes.len() > MAX_CONTROL_BYTES {
         return Err(error(ErrorCode::BadRequest, format!("control request of {} bytes; at most {MAX_CONTROL_BYTES} are read", bytes.len())));

@@ -180,7 +180,7 @@ pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &Sta
     }
     let header = FrameHeader::read(&head).map_err(|e| (FrameHeader::default(), e))?;
     let body = len - FRAME_HEADER_BYTES;
-    if body % 4 != 0 {
+    if !body.is_multiple_of(4) {
         return Err((header, FrameError::Ragged { bytes: body }));
     }
     header.check(session, layout, body / 4).map_err(|e| (header, e))?;
