@@ -3,9 +3,9 @@
 //!
 //! The scope is an XPBD rod (stretch and bend constraints, a torsionally rigid shaft whose
 //! handle roll turns the angulated tip); the colon is the rest wall of a Lumen tube whose spoke
-//! tips move outward where they are touched and spring back; every frame the contacts of the
-//! frame's starting state become contact constraints on both, with the detector's normals and
-//! tip weights. The question it answers: does the scope stay inside the colon, however hard it
+//! tips move outward where they are touched and spring back (driven by a coarse grid of wall
+//! nodes, only the touched ones simulated); every frame the contacts of the frame's starting
+//! state become contact constraints on both, with the detector's normals and tip weights. The question it answers: does the scope stay inside the colon, however hard it
 //! is pushed? ([`FrameReport::escaped`], [`FrameReport::max_penetration_mm`]).
 //!
 //! **Units.** Millimetres, seconds, kilograms throughout (forces in mN = kg mm/s^2 inside the
@@ -16,13 +16,20 @@
 //!
 //! ## Modules
 //! - [`rod`]: the scope (XPBD rod, the bend and stretch math, angulation).
-//! - [`wall`]: the colon wall's tips (radial particles on springs, membrane, range; only the
-//!   touched ones are simulated).
+//! - [`wall`]: the colon wall (spoke tips moved along their spokes by nodes on springs with a
+//!   membrane and a range; only the touched nodes are simulated).
 //! - [`operator`]: the scripted hands (insert, pull back, angulate, twist, the hard push).
-//! - [`contact`]: Lumen contacts as XPBD contact constraints.
+//! - [`contact`]: Lumen contacts as XPBD contact constraints (mass-weighted, with the
+//!   contact's normal; corners held by carrying a sample's previous contact; inelastic).
 //! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
 //!   [`ContactSource`] seam where the daemon plugs in.
 //! - [`setup`]: the colons, the scope's starting pose, the scene spec.
+//!
+//! **Time and rate.** A frame is 1 ms of simulated time (the 1 kHz of a haptic loop) in 16
+//! XPBD substeps; the default script ([`Script::colonoscopy`]) is 3 s, 3,000 frames. On the
+//! full generated colon a frame costs about 0.4 ms of physics and 0.3 ms of detection on the
+//! development machine (over 1,000 frames/s; see `tests/physics.rs` and the
+//! `lumen-sim-run` binary).
 //!
 //! ```no_run
 //! use lumen_sim::{setup, SimConfig, World};

@@ -11,16 +11,19 @@
 //! 1. the operator gives the frame's drive (handle target, force limit, roll, angulation, tip
 //!    hold);
 //! 2. the contacts detected at the end of the previous frame (that is, on the positions this
-//!    frame starts from) become constraints: the wall nodes under them are activated, the wall settles
-//!    (spreads, releases, links its nodes), and each contact is linearised about the current positions;
+//!    frame starts from) become constraints: the wall nodes under them are activated, the
+//!    wall settles (spreads, releases, links its nodes), each contact is linearised about the
+//!    current positions, and a sample's contact of the frame before is carried along where
+//!    its normal turned (see [`crate::contact`]);
 //! 3. `substeps` times: predict rod and wall; the hand (a spring of stiffness `k_hand` towards
 //!    the target, force capped), the tip hold and the anus guide (scope points behind the
 //!    first ring's plane are held on the insertion axis); bend and stretch; the wall's springs,
 //!    membrane and range; the contacts (twice); velocities, then the separating velocity of
-//!    every violated contact removed (inelastic contacts);
-//! 4. the NaN check; the state is written (rod points, the wall tips around active nodes; the whole colon when
-//!    the source's buffer does not keep the last frame) and the contacts are detected once on
-//!    it. Those contacts give this frame's figures (penetration, escapes: measured by the
+//!    every violated contact removed (inelastic contacts), and speeds above
+//!    [`SimParams::max_speed_mm_s`] cut to it;
+//! 4. the NaN check; the state is written (rod points, the wall tips around active nodes;
+//!    the whole colon when the source's buffer does not keep the last frame) and the contacts
+//!    are detected once on it. Those contacts give this frame's figures (penetration, escapes: measured by the
 //!    detector *after* the solve, on the final state of the frame) and are the next frame's
 //!    constraints, so each frame costs exactly one detection.
 //!
@@ -30,9 +33,15 @@
 //! overlap (the inflated GCA colon's sigmoid does). Contacts are mapped back in
 //! [`crate::contact`]; sample numbers in reports are the state's.
 //!
+//! **Before the first frame** the scope is fitted into the colon ([`World::fit_iterations`]):
+//! where the starting pose overlaps the wall, contacts are projected on positions alone until
+//! it does not, so no penetration is turned into velocity.
+//!
 //! **Detection is pluggable** through [`ContactSource`]: [`InProcess`] runs a
 //! [`lumen_detect::Detector`] here; [`FnSource`] wraps any closure; a daemon client implements
-//! the trait by handing out its shared-memory frame and waiting for the reply.
+//! the trait by handing out its shared-memory frame (`frame()` returns it with `kept = false`:
+//! iceoryx2 loans hold stale data, so the whole state is written) and, in `detect`,
+//! submitting it and copying the reply's contacts.
 
 use crate::contact::ContactSet;
 use crate::operator::{Drive, Operator, Script};
@@ -162,9 +171,8 @@ pub struct SimParams {
     /// sweep from the other end carries the hand's push along the whole scope).
     pub stretch_passes: u32,
     /// Axial re-projections of the in-process detector ([`Detector::set_refine`]; default 0,
-    /// as the daemon runs). 1 sees folds and bulge flanks ahead of a sample sooner (the
-    /// deepest penetration of the default 3 s run drops from 0.89 to 0.76 mm) for about 30%
-    /// more detection time.
+    /// as the daemon runs). 1 sees folds and bulge flanks ahead of a sample sooner, for about
+    /// 30% more detection time.
     pub refine: u32,
     /// Speed limit of scope points and wall nodes, mm/s (default 1000; 0: none). A
     /// colonoscope's motions stay far below it; it keeps a frame's motion within about the
