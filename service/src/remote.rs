@@ -31,7 +31,11 @@ pub struct Remote {
 impl Remote {
     /// Opens the zenoh session and starts the control thread; returns once it serves.
     pub fn start(self) -> Result<JoinHandle<()>, String> {
-        let cfg = config(&self.mode, &self.listen, &self.connect).map_err(|e| e.to_string())?;
+        let mut cfg = config(&self.mode, &self.listen, &self.connect).map_err(|e| e.to_string())?;
+        // Bounded memory: zenoh reassembles a fragmented message before we see it, so cap that
+        // at the largest frame a valid spec can have (instead of zenoh's default 1 GiB).
+        let cap = 4 * lumen_proto::limits::MAX_STATE_FLOATS + FRAME_HEADER_BYTES + 1024;
+        cfg.insert_json5("transport/link/rx/max_message_size", &cap.to_string()).map_err(|e| format!("zenoh config: {e}"))?;
         let z = zenoh::open(cfg).wait().map_err(|e| format!("zenoh: cannot open a session listening on {:?}: {e}", self.listen))?;
         let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| format!("zenoh liveliness: {e}"))?;
         let queryable = z.declare_queryable(CONTROL).wait().map_err(|e| format!("zenoh queryable {CONTROL}: {e}"))?;
