@@ -48,6 +48,7 @@ pub mod setup;
 pub mod wall;
 pub mod world;
 
+pub use lumen_proto::Contact;
 pub use operator::{Action, Operator, Phase, Script};
 pub use rod::{Rod, RodParams, V3};
 pub use wall::{Wall, WallParams};
