@@ -23,6 +23,8 @@ pub struct RodSamples {
     pub x: usize,
     /// Largest radius of the rod.
     pub max_radius: f32,
+    /// Smallest radius of the rod.
+    pub min_radius: f32,
 }
 
 impl RodSamples {
@@ -36,12 +38,14 @@ impl RodSamples {
         self.arc.clear();
         self.cubic.clear();
         self.max_radius = 0.0;
+        self.min_radius = f32::INFINITY;
         let inv = 1.0 / x as f32;
         for j in 0..segs {
             let c = Cubic::of_chain(|i| rod.point(i), rod.points, j, alpha);
             self.cubic.push(c);
             let (r0, r1) = (radius(j), radius(j + 1));
             self.max_radius = self.max_radius.max(r0).max(r1);
+            self.min_radius = self.min_radius.min(r0).min(r1);
             for s in 0..x {
                 let u = s as f32 * inv;
                 self.pos.push(c.at(u));

@@ -46,9 +46,20 @@ pub fn rod_rod(
     best.clear();
     best.resize(a.len(), Best::default());
     let mut candidates = 0;
+    // On one rod, neighbouring segments always overlap: skip a leaf pair outright when no two
+    // of its samples lie far enough apart along the rod (the exclusion below would reject
+    // every sample pair anyway).
+    let min_sep = std::f32::consts::PI * a.min_radius;
     a_bvh.pairs(b_bvh, |ja, jb| {
-        candidates += 1;
         let rb_range = b.of_segment(jb);
+        if same {
+            let ra_range = a.of_segment(ja);
+            let far = (b.arc[rb_range.end - 1] - a.arc[ra_range.start]).abs().max((a.arc[ra_range.end - 1] - b.arc[rb_range.start]).abs());
+            if far < min_sep {
+                return;
+            }
+        }
+        candidates += 1;
         for s in a.of_segment(ja) {
             let p = a.pos[s];
             let ra = a.radius[s];
