@@ -281,7 +281,7 @@ fn notes(opts: &Options) -> Vec<String> {
         "Depth error: |reported depth - (sd + r)| at the point the method computed (the sample; parry: the capsule axis point), sd = reference signed distance. False contact: reference gap -(sd + r) >= 0.1 mm. Missed: dense rod points (64 per segment) penetrating >= 0.1 mm with no reported contact within one sample spacing; counted as places (runs of consecutive points), dense points in parentheses.".into(),
         "Normal error: angle to the reference normal at the nearest wall point; where two wall points are equally near that normal is ill-defined, so the reference normal at the method's own wall point is also accepted (the smaller angle counts).".into(),
         "Escapes: samples whose centre is outside the reference wall (sd > 0); detected when the method reports a contact there with depth >= r - 0.1 mm and a normal within 90 degrees of the reference's outward normal.".into(),
-        "Rings doubled: the default method at the default precision on the same scene rebuilt with half the ring spacing (same insertion and seed, so the same endoscope up to the colon's finer sampling).".into(),
+        "Rings doubled: the default method at the default precision on the same scene rebuilt with half the ring spacing (denser: same insertion and seed, so the same endoscope up to the colon's finer sampling), and on the same frames with the colon extended past its last ring by as many rings again (longer: the very same endoscope and contacts).".into(),
     ]
 }
 

@@ -33,6 +33,7 @@ USAGE: lumen-bench [--quick] [--scene gca|generated|all] [--out DIR] [--data PAT
   --parry-capsules     parry: query capsules everywhere (default: round segments,
                        capsules only where the axis nears the wall)
   --no-progress        no progress bar
+  --replot DIR         rewrite DIR/report.md and speed_vs_error.svg from DIR/report.json
 ";
 
 fn list<T: std::str::FromStr>(v: &str, what: &str) -> Result<Vec<T>, String> {
@@ -78,6 +79,23 @@ fn parse(args: &[String]) -> Result<(Options, PathBuf, bool), String> {
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    // `--replot DIR`: rewrite DIR's report.md and speed_vs_error.svg from its report.json.
+    if let [flag, dir] = args.as_slice() {
+        if flag == "--replot" {
+            let dir = PathBuf::from(dir);
+            let done = std::fs::read_to_string(dir.join("report.json"))
+                .map_err(|e| lumen_bench::Error::Io(e.to_string()))
+                .and_then(|t| lumen_bench::Report::from_json(&t))
+                .and_then(|r| r.write(&dir));
+            return match done {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("lumen-bench: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
+    }
     let (opts, out, progress) = match parse(&args) {
         Ok(p) => p,
         Err(e) if e.is_empty() => {

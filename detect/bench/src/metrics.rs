@@ -441,7 +441,7 @@ pub struct Reported {
 }
 
 /// Where on the tube a `lumen-detect` contact says it is.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Place {
     pub ring: u32,
     pub spoke: u32,
@@ -470,7 +470,7 @@ impl Reported {
 }
 
 /// Something wrong, located: for the report, so it can be reproduced and fixed.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Finding {
     /// `depth_error`, `missed`, `false_contact`, `escape_missed` or `normal_error`.
     pub kind: String,

@@ -195,3 +195,57 @@ pub fn build(kind: SceneKind, spokes: usize, ring_factor: f32, opts: &Options, g
         attribution: (kind == SceneKind::Gca).then(gca_attribution),
     })
 }
+
+/// `base` with its colon extended past its last ring by `extra` rings (straight on along the last
+/// segment, same spacing, the last ring's spokes), in every frame: the same endoscope and the
+/// same contacts in a longer colon. Nothing is kept for judging.
+pub fn extended(base: &SceneData, extra: usize) -> SceneData {
+    use lumen_detect::proto::Shape;
+    let b = base.spokes;
+    let stride = 3 * (b + 1);
+    let tube_floats = base.rings * stride;
+    let rings = base.rings + extra;
+    let mut spec = base.spec.clone();
+    for body in &mut spec.bodies {
+        if let Shape::Tube { rings: r, .. } = &mut body.shape {
+            *r = rings;
+        }
+    }
+    let floats = base.floats + extra * stride;
+    let mut states = Vec::with_capacity(base.frames * floats);
+    for f in 0..base.frames {
+        let st = base.state(f);
+        let (tube, rod) = st.split_at(tube_floats);
+        states.extend_from_slice(tube);
+        let last = &tube[(base.rings - 1) * stride..];
+        let prev = &tube[(base.rings - 2) * stride..];
+        let step = [last[0] - prev[0], last[1] - prev[1], last[2] - prev[2]];
+        for j in 1..=extra {
+            let t = j as f32;
+            states.extend_from_slice(&[last[0] + t * step[0], last[1] + t * step[1], last[2] + t * step[2]]);
+            states.extend_from_slice(&last[3..stride]);
+        }
+        states.extend_from_slice(rod);
+    }
+    SceneData { spec, floats, states, rings, eval: Vec::new(), import_report: None, ..base.clone_empty() }
+}
+
+impl SceneData {
+    /// This scene's figures without its states or judged frames.
+    fn clone_empty(&self) -> SceneData {
+        SceneData {
+            kind: self.kind,
+            spokes: self.spokes,
+            rings: self.rings,
+            spec: self.spec.clone(),
+            floats: self.floats,
+            states: Vec::new(),
+            frames: self.frames,
+            eval: Vec::new(),
+            escaping_frames: self.escaping_frames,
+            depth_mm: self.depth_mm,
+            import_report: None,
+            attribution: self.attribution,
+        }
+    }
+}

@@ -126,7 +126,7 @@ pub fn pairwise_ratio(a: &[u64], b: &[u64]) -> Option<f64> {
 pub struct SceneResult {
     pub infos: Vec<SceneInfo>,
     pub runs: Vec<Run>,
-    pub doubled: Option<RingsDoubled>,
+    pub doubled: Vec<RingsDoubled>,
 }
 
 fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut Vec<((u32, MethodKind), Vec<Vec<Reported>>)>) -> Result<Vec<Run>, Error> {
@@ -182,7 +182,7 @@ fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut
 
 /// Runs the sweep for one scene kind at every spoke count.
 pub fn scene(kind: SceneKind, opts: &Options, gca: Option<&GcaData>, pb: &ProgressBar) -> Result<SceneResult, Error> {
-    let mut out = SceneResult { infos: Vec::new(), runs: Vec::new(), doubled: None };
+    let mut out = SceneResult { infos: Vec::new(), runs: Vec::new(), doubled: Vec::new() };
     let steps = match kind {
         SceneKind::Generated => opts.reference_steps_generated,
         SceneKind::Gca => opts.reference_steps_gca,
@@ -252,53 +252,61 @@ pub fn scene(kind: SceneKind, opts: &Options, gca: Option<&GcaData>, pb: &Progre
 
         if opts.rings_doubled && b == opts.doubled_spokes && opts.methods.contains(&MethodKind::Default) {
             drop(scene);
-            out.doubled = Some(rings_doubled(kind, b, opts, gca, pb)?);
+            out.doubled = rings_doubled(kind, b, opts, gca, pb)?;
         }
     }
     Ok(out)
 }
 
-/// The default method at the default precision on the scene and on the same scene with twice the
-/// rings (half the ring spacing; same insertion, same seed, so the same endoscope up to the
-/// colon's finer sampling): per-frame times, passes alternated.
-pub fn rings_doubled(kind: SceneKind, spokes: usize, opts: &Options, gca: Option<&GcaData>, pb: &ProgressBar) -> Result<RingsDoubled, Error> {
+/// The default method at the default precision on the scene, on the same scene with twice the
+/// rings at half the spacing (`denser`: same insertion and seed, so the same endoscope up to the
+/// colon's finer sampling), and on the same frames with the colon extended past its last ring
+/// by as many rings again (`longer`: the very same endoscope and contacts): per-frame times,
+/// passes alternated.
+pub fn rings_doubled(kind: SceneKind, spokes: usize, opts: &Options, gca: Option<&GcaData>, pb: &ProgressBar) -> Result<Vec<RingsDoubled>, Error> {
     pb.set_message(format!("{} B{spokes}: rings doubled", kind.name()));
     let base = scenes::build(kind, spokes, 1.0, opts, gca, false)?;
-    let dense = scenes::build(kind, spokes, 2.0, opts, gca, false)?;
+    let denser = scenes::build(kind, spokes, 2.0, opts, gca, false)?;
+    let longer = scenes::extended(&base, base.rings);
     let x = opts.default_precision;
     let mut buf = Vec::new();
-    let (mut tb, mut td): (Option<Vec<u64>>, Option<Vec<u64>>) = (None, None);
-    let min_into = |acc: &mut Option<Vec<u64>>, t: Vec<u64>| match acc {
-        None => *acc = Some(t),
-        Some(a) => a.iter_mut().zip(&t).for_each(|(a, &n)| *a = (*a).min(n)),
-    };
-    let mut contacts = [0.0; 2];
+    let mut times: [Option<Vec<u64>>; 3] = [None, None, None];
+    let mut contacts = [0.0; 3];
     for _ in 0..opts.repeats.max(1) {
-        let t = pass(&base, x, MethodKind::Default, opts, &mut buf, None)?;
-        contacts[0] = t.contacts;
-        min_into(&mut tb, t.ns);
-        let t = pass(&dense, x, MethodKind::Default, opts, &mut buf, None)?;
-        contacts[1] = t.contacts;
-        min_into(&mut td, t.ns);
+        for (i, sc) in [&base, &denser, &longer].into_iter().enumerate() {
+            let t = pass(sc, x, MethodKind::Default, opts, &mut buf, None)?;
+            contacts[i] = t.contacts;
+            match &mut times[i] {
+                None => times[i] = Some(t.ns),
+                Some(a) => a.iter_mut().zip(&t.ns).for_each(|(a, &n)| *a = (*a).min(n)),
+            }
+        }
     }
     pb.inc(1);
-    let (tb, td) = (tb.unwrap_or_default(), td.unwrap_or_default());
+    let [tb, td, tl] = times.map(Option::unwrap_or_default);
     let (mb, pb99) = median_p99_us(&tb);
-    let (md, pd99) = median_p99_us(&td);
-    Ok(RingsDoubled {
-        scene: kind.name().into(),
-        method: MethodKind::Default.name().into(),
-        x,
-        spokes,
-        rings: base.rings,
-        rings_doubled: dense.rings,
-        median_us: mb,
-        p99_us: pb99,
-        median_us_doubled: md,
-        p99_us_doubled: pd99,
-        ratio_of_medians: if mb > 0.0 { md / mb } else { f64::NAN },
-        pairwise_ratio: pairwise_ratio(&td, &tb),
-        contacts_per_frame: contacts[0],
-        contacts_per_frame_doubled: contacts[1],
-    })
+    let out = [("denser", &denser, &td, contacts[1]), ("longer", &longer, &tl, contacts[2])]
+        .into_iter()
+        .map(|(how, sc, t, c)| {
+            let (m, p) = median_p99_us(t);
+            RingsDoubled {
+                scene: kind.name().into(),
+                how: how.into(),
+                method: MethodKind::Default.name().into(),
+                x,
+                spokes,
+                rings: base.rings,
+                rings_doubled: sc.rings,
+                median_us: mb,
+                p99_us: pb99,
+                median_us_doubled: m,
+                p99_us_doubled: p,
+                ratio_of_medians: if mb > 0.0 { m / mb } else { 0.0 },
+                pairwise_ratio: pairwise_ratio(t, &tb),
+                contacts_per_frame: contacts[0],
+                contacts_per_frame_doubled: c,
+            }
+        })
+        .collect();
+    Ok(out)
 }

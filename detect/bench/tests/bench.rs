@@ -254,9 +254,13 @@ fn tiny_sweep_writes_a_complete_report() {
         assert_eq!(d.penetrating_dense, pa.penetrating_dense);
         assert!(d.contacts_evaluated > 0, "the scope presses on the wall");
     }
-    let dbl = &report.rings_doubled[0];
-    assert_eq!((dbl.rings, dbl.rings_doubled, dbl.x), (101, 201, 2));
-    assert!(dbl.median_us > 0.0 && dbl.median_us_doubled > 0.0);
+    assert_eq!(report.rings_doubled.len(), 2);
+    for (dbl, how, rings) in [(&report.rings_doubled[0], "denser", 201), (&report.rings_doubled[1], "longer", 202)] {
+        assert_eq!((dbl.how.as_str(), dbl.rings, dbl.rings_doubled, dbl.x), (how, 101, rings, 2));
+        assert!(dbl.median_us > 0.0 && dbl.median_us_doubled > 0.0);
+    }
+    // Longer: the same endoscope in the same colon, extended past its end: the same contacts.
+    assert_eq!(report.rings_doubled[1].contacts_per_frame, report.rings_doubled[1].contacts_per_frame_doubled);
 
     let dir = std::env::temp_dir().join(format!("lumen-bench-test-{}", std::process::id()));
     report.write(&dir).unwrap();
@@ -282,6 +286,10 @@ fn tiny_sweep_writes_a_complete_report() {
         assert_eq!(r["spokes"], 12);
     }
     assert!(!json["git_revision"].as_str().unwrap().is_empty());
+    // It reads back, so --replot can redraw it.
+    let back = lumen_bench::Report::from_json(&json.to_string()).unwrap();
+    assert_eq!(back.runs.len(), 6);
+    assert_eq!(back.markdown(), report.markdown());
     assert!(json["machine"]["cores"].as_u64().unwrap() >= 1);
     assert!(!json["machine"]["cpu"].as_str().unwrap().is_empty());
     std::fs::remove_dir_all(&dir).ok();
