@@ -88,6 +88,8 @@ pub enum Mode {
 /// The benchmark's plan.
 pub struct IpcBench {
     quick: bool,
+    /// Use the analytic stand-in instead of lumen-scene's generated colonoscopy.
+    pub stand_in: bool,
     transports: Vec<Transport>,
     prefix: String,
     endpoint: String,
@@ -179,7 +181,7 @@ impl IpcBench {
             Some(o) => return Err(format!("unknown transport {o:?}: use iceoryx2 or zenoh")),
         };
         let prefix = format!("lumen_bench_{}_", std::process::id());
-        Ok(Self { quick, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
+        Ok(Self { quick, stand_in: false, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
     }
 
     fn client(&self, t: Transport) -> Result<Client, ClientError> {
@@ -194,9 +196,14 @@ impl IpcBench {
         let exe = std::env::current_exe()?;
         let args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--log", "warn"].iter().map(|s| s.to_string()).collect();
         let _daemon = DaemonChild::spawn(&exe, &args)?;
-        let spec = scene::spec();
+        let (spec, states) = if self.stand_in { scene::stand_in(FRAMES) } else { scene::generated(FRAMES) };
         let layout = StateLayout::of(&spec);
-        let states = Arc::new(precompute(&layout));
+        let scene_name = if self.stand_in {
+            format!("stand-in colon: tube {} rings x {} spokes + rod of {} points", scene::RINGS, scene::SPOKES, scene::ROD_POINTS)
+        } else {
+            format!("lumen-scene generated colonoscopy (seed 1): colon {} rings x 32 spokes, scope of 160 points inserted 1 mm per frame", spec.bodies[0].points())
+        };
+        let states = Arc::new(states);
         let (b2b, paced) = if self.quick { (1500, 1500) } else { (10_000, 10_000) };
         let mut runs = Vec::new();
         let bar = indicatif::ProgressBar::new((self.transports.len() * 6) as u64);
@@ -219,7 +226,7 @@ impl IpcBench {
         }
         bar.finish_and_clear();
         Ok(IpcReport {
-            scene: format!("stand-in colon: tube {} rings x {} spokes + rod of {} points, interior contacts, precision 4", scene::RINGS, scene::SPOKES, scene::ROD_POINTS),
+            scene: format!("{scene_name}, interior contacts, precision 4"),
             floats_per_frame: layout.floats,
             quick: self.quick,
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -235,7 +242,7 @@ impl IpcBench {
                 let (spec, states) = (spec.clone(), states.clone());
                 let (prefix, endpoint) = (self.prefix.clone(), self.endpoint.clone());
                 std::thread::spawn(move || -> Result<Samples, String> {
-                    let me = IpcBench { quick: true, transports: vec![], prefix, endpoint };
+                    let me = IpcBench { quick: true, stand_in: false, transports: vec![], prefix, endpoint };
                     let client = me.client(t).map_err(|e| e.to_string())?;
                     std::thread::sleep(start.saturating_duration_since(Instant::now()));
                     measure(&client, &spec, &states, Mode::Paced1kHz, frames, echo).map_err(|e| e.to_string())
@@ -265,23 +272,15 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
     }
 }
 
-/// 64 consecutive frames of the scene, played forwards then backwards so motion is continuous.
-fn precompute(layout: &StateLayout) -> Vec<Vec<f32>> {
-    (0..64u64)
-        .map(|k| {
-            let mut s = vec![0.0; layout.floats];
-            scene::write_state(k, &mut s);
-            s
-        })
-        .collect()
-}
+/// Frames precomputed; played forwards then backwards so the motion stays continuous.
+const FRAMES: usize = 64;
 
 fn state_index(k: usize) -> usize {
-    let p = k % 126;
-    if p < 64 {
+    let p = k % (2 * FRAMES - 2);
+    if p < FRAMES {
         p
     } else {
-        126 - p
+        2 * FRAMES - 2 - p
     }
 }
 

@@ -1,6 +1,12 @@
-//! A stand-in for the real colon scene, sized like it: a 1,250-ring x 32-spoke tube (a curved,
-//! haustrated colon of about 1.5 m) and a 160-point endoscope rod that advances and bends inside
-//! it, touching the wall in places. Deterministic; millimetres.
+//! The benchmark scenes, as a spec and a sequence of frame states:
+//!
+//! - [`generated`] (default): `lumen-scene`'s seeded generated colon (1.5 m, 1.2 mm rings, 32
+//!   spokes, haustral folds) with its kinematic endoscope (160 points, 6.5 mm) inserted about
+//!   1 mm per frame, deforming the wall at the bends.
+//! - the stand-in ([`spec`], [`write_state`]): sized like it, analytic and cheap: a curved
+//!   haustrated tube of 1,250 x 32 and a swaying 160-point rod.
+//!
+//! Deterministic; millimetres.
 
 use lumen_proto::{BodySpec, ContactKind, PairSpec, SceneSpec, Shape};
 use std::f32::consts::TAU;
@@ -25,6 +31,37 @@ pub fn spec() -> SceneSpec {
         ],
         vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }],
     )
+}
+
+/// `frames` consecutive frames of the generated colonoscopy (seed 1, from 600 mm deep, 1 mm
+/// per frame, no escapes), and their spec.
+pub fn generated(frames: usize) -> (SceneSpec, Vec<Vec<f32>>) {
+    let colon = lumen_scene::generate(&lumen_scene::ColonParams::seeded(1));
+    let insertion = lumen_scene::Insertion { escapes: false, ..Default::default() };
+    let mut spec = None;
+    let states = insertion
+        .frames(&colon, frames, 600.0, 1.0, 1)
+        .map(|f| {
+            let scene = lumen_detect::Scene::new().tube("colon", f.colon).rod("scope", f.scope).pair("scope", "colon", ContactKind::Interior);
+            spec.get_or_insert_with(|| scene.spec());
+            scene.state()
+        })
+        .collect();
+    (spec.expect("at least one frame"), states)
+}
+
+/// `frames` consecutive frames of the stand-in, and its spec.
+pub fn stand_in(frames: usize) -> (SceneSpec, Vec<Vec<f32>>) {
+    let spec = spec();
+    let n = lumen_proto::StateLayout::of(&spec).floats;
+    let states = (0..frames as u64)
+        .map(|k| {
+            let mut s = vec![0.0; n];
+            write_state(k, &mut s);
+            s
+        })
+        .collect();
+    (spec, states)
 }
 
 fn centre(s: f32) -> [f32; 3] {
@@ -88,6 +125,22 @@ fn norm(a: [f32; 3]) -> [f32; 3] {
 mod tests {
     use super::*;
     use lumen_proto::StateLayout;
+
+    #[test]
+    fn generated_colonoscopy_is_colon_sized_and_touches_the_wall() {
+        let (spec, states) = generated(3);
+        let layout = StateLayout::of(&spec);
+        assert_eq!(spec.bodies[0].spokes(), Some(32));
+        assert!((1200..1300).contains(&spec.bodies[0].points()), "{} rings", spec.bodies[0].points());
+        assert_eq!(spec.bodies[1].points(), 160);
+        let mut det = lumen_detect::Detector::new(&spec).unwrap();
+        let mut counts = Vec::new();
+        for s in &states {
+            assert_eq!(s.len(), layout.floats);
+            counts.push(det.detect(s).unwrap().len());
+        }
+        assert!(counts.iter().all(|&n| n > 0), "{counts:?}");
+    }
 
     #[test]
     fn stand_in_is_colon_sized_and_touches_the_wall() {

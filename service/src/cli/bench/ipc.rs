@@ -16,10 +16,14 @@ pub struct IpcArgs {
     /// Only this transport (iceoryx2 or zenoh).
     #[arg(long)]
     pub only: Option<String>,
+    /// Use the analytic colon-sized stand-in instead of lumen-scene's generated colonoscopy.
+    #[arg(long)]
+    pub stand_in: bool,
 }
 
 pub fn run(args: IpcArgs) -> CliResult {
-    let bench = IpcBench::new(args.quick, args.only.as_deref())?;
+    let mut bench = IpcBench::new(args.quick, args.only.as_deref())?;
+    bench.stand_in = args.stand_in;
     let report: IpcReport = bench.run()?;
     std::fs::create_dir_all(&args.out)?;
     std::fs::write(args.out.join("ipc.json"), serde_json::to_string_pretty(&report)?)?;
