@@ -130,8 +130,10 @@ fn invalid_specs_are_refused_with_a_reason() {
     let e = client.open_session(&scene().spec).err().expect("full");
     assert_eq!(e.code(), Some(lumen_proto::session::ErrorCode::Busy));
     assert_eq!(client.describe(_one.id()).unwrap().max_observers, 2);
-    let e = Client::local_with(LocalOptions { prefix: Some(unique_prefix("none")), name: None }).unwrap().open_session(&scene().spec).err().unwrap();
+    let none = unique_prefix("none");
+    let e = Client::local_with(LocalOptions { prefix: Some(none.clone()), name: None }).unwrap().open_session(&scene().spec).err().unwrap();
     assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
+    assert!(leftovers(&none).is_empty(), "a client alone leaves nothing: {:?}", shm_files(&none));
     drop(_one);
     // SIGINT stops it cleanly too.
     let mut daemon = daemon;

@@ -156,6 +156,24 @@ impl Daemon {
     }
 }
 
+impl Drop for Daemon {
+    /// Stops the daemon cleanly (SIGTERM, so it releases its shared memory; SIGKILL after 5 s),
+    /// then, if nothing else of the prefix is left, removes iceoryx2's per-prefix node counter:
+    /// test runs leave nothing in /dev/shm.
+    fn drop(&mut self) {
+        if let Ok(None) = self.process.child.try_wait() {
+            self.process.signal(libc::SIGTERM);
+            self.process.wait_exit(Duration::from_secs(5));
+        }
+        let left = shm_files(&self.prefix);
+        if left.iter().all(|f| f.ends_with(".global_mgmt")) {
+            for f in left {
+                let _ = std::fs::remove_file(Path::new("/dev/shm").join(f));
+            }
+        }
+    }
+}
+
 /// A straight tube (rings along x, radius 10) and a rod inside it that sways into the wall.
 pub struct TestScene {
     pub spec: SceneSpec,
