@@ -66,8 +66,8 @@ fn main() {
                 let at = e.next().unwrap();
                 let w = e.next().unwrap();
                 println!("  {}: depth {:.4}, normal {:?} ({:.2} deg from the reference's), wall {:?} (reference sd there {:.4}{}), place {:?}", method.name(), c.depth, c.normal, lumen_bench::metrics::angle_deg(c.normal, at.q.normal), c.wall, w.q.sd, if w.folded { ", on a fold / other loop" } else { "" }, c.place);
-                if c.at.is_some() {
-                    println!("  (computed at {:?}: reference depth there {:.4})", c.at.unwrap(), at.q.sd + r);
+                if let Some(p) = c.at {
+                    println!("  (computed at {p:?}: reference depth there {:.4})", at.q.sd + r);
                 }
             }
             None => println!("  {}: no contact", method.name()),

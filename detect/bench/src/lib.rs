@@ -252,7 +252,7 @@ impl Options {
         if self.scenes.is_empty() || self.methods.is_empty() || self.precisions.is_empty() || self.spokes.is_empty() {
             return bad("scenes, methods, precisions and spokes must not be empty");
         }
-        if self.precisions.iter().any(|&x| !(1..=64).contains(&x) || metrics::DENSE_PER_SEGMENT % x as usize != 0) {
+        if self.precisions.iter().any(|&x| !(1..=64).contains(&x) || !metrics::DENSE_PER_SEGMENT.is_multiple_of(x as usize)) {
             return bad("precisions must divide 64 (1, 2, 4, 8, 16, 32 or 64)");
         }
         if self.spokes.iter().any(|&b| !(3..=256).contains(&b)) {

@@ -625,7 +625,7 @@ impl Tally {
 /// at the points [`plan`] listed for `reported`; `frame` is only for the findings.
 pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], answers: &[Answer], tally: &mut Tally) {
     let x = x.max(1);
-    assert!(DENSE_PER_SEGMENT % x == 0, "precision {x} does not divide {DENSE_PER_SEGMENT}");
+    assert!(DENSE_PER_SEGMENT.is_multiple_of(x), "precision {x} does not divide {DENSE_PER_SEGMENT}");
     let n_samples = truth.samples(x);
     tally.frames += 1;
     tally.bound_max = tally.bound_max.max(truth.bound());

@@ -13,6 +13,7 @@ use std::path::Path;
 /// frame, same run); errors in mm and degrees. `None` (JSON `null`) where there is nothing to
 /// measure (no contact judged, or the other method not run).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Run {
     pub scene: String,
     /// `thesis`, `default` or `parry`.
@@ -88,6 +89,7 @@ impl Run {
 
 /// One scene at one spoke count.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct SceneInfo {
     pub scene: String,
     pub spokes: usize,
@@ -115,6 +117,7 @@ pub struct SceneInfo {
 
 /// The default method on a colon with twice the rings, same endoscope.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct RingsDoubled {
     pub scene: String,
     /// `denser` (half the ring spacing) or `longer` (the colon extended past its end).
@@ -138,6 +141,7 @@ pub struct RingsDoubled {
 
 /// Where it ran.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Machine {
     pub cpu: String,
     pub cores: usize,
@@ -185,6 +189,7 @@ pub fn git_revision() -> String {
 
 /// Everything one sweep measured.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Report {
     pub tool: String,
     pub git_revision: String,
@@ -215,19 +220,22 @@ fn f(v: Option<f64>, digits: usize) -> String {
     }
 }
 
-/// A number for an axis label: few digits, no exponent between 1e-4 and 1e7.
+/// A number for an axis label: two significant digits, no exponent between 1e-4 and 1e7.
 fn short(v: f64) -> String {
     let a = v.abs();
-    if a >= 1e7 || (a > 0.0 && a < 1e-4) {
-        format!("{v:.0e}")
-    } else if a >= 100.0 {
-        format!("{v:.0}")
-    } else if a >= 1.0 {
-        let s = format!("{v:.1}");
-        s.trim_end_matches(".0").to_owned()
+    if a == 0.0 {
+        return "0".into();
+    }
+    if !(1e-4..1e7).contains(&a) {
+        return format!("{v:.1e}");
+    }
+    let mag = a.log10().floor() as i32;
+    let step = 10f64.powi(mag - 1);
+    let r = (v / step).round() * step;
+    if mag >= 1 {
+        format!("{r:.0}")
     } else {
-        let s = format!("{v:.4}");
-        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+        format!("{r:.*}", (1 - mag) as usize)
     }
 }
 
@@ -369,7 +377,7 @@ impl Report {
             for (r, g) in findings {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | ({:.2}, {:.2}, {:.2}) | {} | {:.4} | {} | {} | {} | {:.4} |",
+                    "| {} | {} | {} | {} | {} | {} | ({:.2}, {:.2}, {:.2}) | {} | {:.4} | {} | {}{} | {} | {:.4} |",
                     r.scene,
                     r.spokes,
                     r.x,
@@ -382,7 +390,8 @@ impl Report {
                     f(g.reported_depth.map(f64::from), 4),
                     g.reference_depth,
                     f(g.normal_err_deg.map(f64::from), 2),
-                    format!("{}{}", f(g.reported_wall_sd.map(f64::from), 3), if g.reported_wall_excluded == Some(true) { " *" } else { "" }),
+                    f(g.reported_wall_sd.map(f64::from), 3),
+                    if g.reported_wall_excluded == Some(true) { " *" } else { "" },
                     g.place.map_or("-".into(), |p| format!("{}, {}, {:.3}, {}", p.ring, p.spoke, p.param, p.flags)),
                     g.reference_local_bound_mm
                 );
@@ -474,7 +483,7 @@ impl Report {
             format!("{} / {}, {}", d.escaped_detected, d.escaped_total, mark(d.escaped_detected == d.escaped_total))
         });
         for how in ["denser", "longer"] {
-            row(&format!("doubling the rings ({how}) changes the time by < 10%"), &|sc| match self.rings_doubled.iter().find(|r| &r.scene == sc && r.how == how) {
+            row(&format!("doubling the rings ({how}) changes the time by < 10%"), &|sc| match self.rings_doubled.iter().find(|r| r.scene == *sc && r.how == how) {
                 Some(r) => format!("{:+.1}% (medians), {}", 100.0 * (r.ratio_of_medians - 1.0), mark((r.ratio_of_medians - 1.0).abs() < 0.10)),
                 None => "not run".into(),
             });
@@ -517,8 +526,13 @@ impl Report {
                 _ => RGBColor(80, 80, 80),
             };
             for (area, scene) in areas.iter().zip(&scenes) {
-                let pts: Vec<(&Run, f64, f64)> =
-                    self.runs.iter().filter(|r| &r.scene == scene && r.median_us > 0.0).map(|r| (r, r.median_us, r.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR))).collect();
+                // Both axes in log10, labelled with the values themselves.
+                let pts: Vec<(&Run, f64, f64)> = self
+                    .runs
+                    .iter()
+                    .filter(|r| &r.scene == scene && r.median_us > 0.0)
+                    .map(|r| (r, r.median_us.log10(), r.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR).log10()))
+                    .collect();
                 if pts.is_empty() {
                     continue;
                 }
@@ -529,29 +543,30 @@ impl Report {
                     y0 = y0.min(e);
                     y1 = y1.max(e);
                 }
-                let (x0, x1) = (x0 / 1.6, x1 * 1.6);
-                let (y0, y1) = (y0 / 2.0, y1 * 2.0);
+                let (x0, x1) = (x0 - 0.2, x1 + 0.2);
+                let (y0, y1) = (y0 - 0.3, y1 + 0.3);
                 let mut chart = ChartBuilder::on(area)
                     .caption(format!("scene: {scene}"), ("sans-serif", 16))
                     .margin(12)
                     .x_label_area_size(40)
                     .y_label_area_size(64)
-                    .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                    .build_cartesian_2d(x0..x1, y0..y1)
                     .map_err(|e| pe(&e))?;
                 chart
                     .configure_mesh()
                     .x_desc("time per frame, median (us, log)")
                     .y_desc("p99 depth error (mm, log)")
-                    .x_labels(8)
-                    .y_labels(8)
-                    .x_label_formatter(&|v| short(*v))
-                    .y_label_formatter(&|v| short(*v))
+                    .x_labels(10)
+                    .y_labels(12)
+                    .x_label_formatter(&|v| short(10f64.powf(*v)))
+                    .y_label_formatter(&|v| short(10f64.powf(*v)))
                     .draw()
                     .map_err(|e| pe(&e))?;
                 // The 0.05 mm target.
-                if 0.05 > y0 && 0.05 < y1 {
+                let target = 0.05f64.log10();
+                if target > y0 && target < y1 {
                     chart
-                        .draw_series(LineSeries::new(vec![(x0, 0.05), (x1, 0.05)], RGBColor(150, 150, 150).stroke_width(1)))
+                        .draw_series(LineSeries::new(vec![(x0, target), (x1, target)], RGBColor(150, 150, 150).stroke_width(1)))
                         .map_err(|e| pe(&e))?
                         .label("0.05 mm target")
                         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], RGBColor(150, 150, 150)));

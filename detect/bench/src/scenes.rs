@@ -136,7 +136,7 @@ fn length(t: &Tube) -> f64 {
 /// The frames to judge out of `frames`: every `every`-th, and every `escapes_every`-th of those
 /// with control points pushed through the wall (0: none more).
 pub fn is_eval(f: usize, escaped: bool, every: usize, escapes_every: usize) -> bool {
-    (every > 0 && f % every == 0) || (escaped && escapes_every > 0 && f % escapes_every == 0)
+    (every > 0 && f.is_multiple_of(every)) || (escaped && escapes_every > 0 && f.is_multiple_of(escapes_every))
 }
 
 /// Builds a scene: colon, `opts.frames` frames of the default insertion (seed `opts.seed`,

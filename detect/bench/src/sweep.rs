@@ -129,7 +129,10 @@ pub struct SceneResult {
     pub doubled: Vec<RingsDoubled>,
 }
 
-fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut Vec<((u32, MethodKind), Vec<Vec<Reported>>)>) -> Result<Vec<Run>, Error> {
+/// Per configuration (precision, method): its contacts at each judged frame.
+type Records = Vec<((u32, MethodKind), Vec<Vec<Reported>>)>;
+
+fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut Records) -> Result<Vec<Run>, Error> {
     let mut runs = Vec::new();
     let mut buf = Vec::with_capacity(scene.floats);
     for &x in &opts.precisions {
