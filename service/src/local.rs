@@ -135,24 +135,8 @@ impl Local {
 
 /// Starts a session's thread; the inner result says whether its channels were created.
 fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
-    let (tx, rx) = mpsc::channel();
     let id = plan.entry.info.session;
-    let handle = std::thread::Builder::new()
-        .name(format!("iox2-session-{id}"))
-        .spawn(move || {
-            let result = run_session(&cfg, plan, &registry, &tx);
-            registry.remove(id);
-            match result {
-                Ok(why) => tracing::info!("session {id} ended: {why}"),
-                Err(e) => {
-                    let _ = tx.send(Err(e.clone()));
-                    tracing::warn!("session {id} failed: {e}");
-                }
-            }
-        })
-        .map_err(|e| e.to_string())?;
-    let r = rx.recv_timeout(Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
-    Ok((handle, r))
+    crate::registry::spawn_session(format!("iox2-session-{id}"), id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
 }
 
 /// A session's services and ports.

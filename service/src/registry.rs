@@ -142,3 +142,30 @@ mod tests {
         assert!(a < 1 << 53 && b < 1 << 53);
     }
 }
+
+/// Runs session `id` on its own thread named `name`: `run` gets a sender on which it reports
+/// whether its channels were created, and returns why the session ended. The session leaves
+/// the registry whatever happens. Returns the thread and that first report (an error if the
+/// thread did not report within 10 s).
+pub fn spawn_session<F>(name: String, id: u64, registry: Arc<Registry>, run: F) -> Result<(std::thread::JoinHandle<()>, Result<(), String>), String>
+where
+    F: FnOnce(&Registry, &std::sync::mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> + Send + 'static,
+{
+    let (tx, rx) = std::sync::mpsc::channel();
+    let handle = std::thread::Builder::new()
+        .name(name)
+        .spawn(move || {
+            let result = run(&registry, &tx);
+            registry.remove(id);
+            match result {
+                Ok(why) => tracing::info!("session {id} ended: {why}"),
+                Err(e) => {
+                    let _ = tx.send(Err(e.clone()));
+                    tracing::warn!("session {id} failed: {e}");
+                }
+            }
+        })
+        .map_err(|e| e.to_string())?;
+    let r = rx.recv_timeout(std::time::Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
+    Ok((handle, r))
+}

@@ -85,25 +85,10 @@ impl Remote {
     }
 }
 
+/// Starts a session's thread; the inner result says whether its channels were created.
 fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
-    let (tx, rx) = mpsc::channel();
     let id = plan.entry.info.session;
-    let handle = std::thread::Builder::new()
-        .name(format!("zenoh-session-{id}"))
-        .spawn(move || {
-            let result = run_session(&z, plan, &registry, &tx);
-            registry.remove(id);
-            match result {
-                Ok(why) => tracing::info!("session {id} ended: {why}"),
-                Err(e) => {
-                    let _ = tx.send(Err(e.clone()));
-                    tracing::warn!("session {id} failed: {e}");
-                }
-            }
-        })
-        .map_err(|e| e.to_string())?;
-    let r = rx.recv_timeout(Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
-    Ok((handle, r))
+    crate::registry::spawn_session(format!("zenoh-session-{id}"), id, registry, move |registry, tx| run_session(&z, plan, registry, tx))
 }
 
 fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
