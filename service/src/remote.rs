@@ -12,7 +12,7 @@ use lumen_proto::StateLayout;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 use zenoh::handlers::RingChannel;
 use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
