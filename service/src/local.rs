@@ -5,6 +5,7 @@
 use crate::control::{self, Plan, CONTACTS_BORROWED, CONTACTS_BUFFER, FRAME_BORROWED, FRAME_BUFFER};
 use crate::engine::Engine;
 use crate::registry::Registry;
+use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
 use lumen_client::local::{config, node, service_name, ContactsService, EventService, FrameService, Svc, EVENT_PEER_DIED, EVENT_SENT};
 use lumen_client::Error as ClientError;
@@ -253,8 +254,37 @@ impl Channels {
         engine.record(&reply, service);
     }
 
+    /// Whether the client's frame publisher is still there and its process alive.
+    ///
+    /// A client killed with `kill -9` leaves its publisher registered until someone removes its
+    /// dead node. The control thread tries that every tick, but a removal can fail for a while
+    /// (another process or thread may be cleaning at the same moment), so the session does not
+    /// wait for it: it asks for the publisher's node state itself and, when the node is dead,
+    /// removes its resources (best effort) and reports the client gone.
     fn client_present(&self) -> bool {
-        self.frames.dynamic_config().number_of_publishers() > 0
+        let mut publisher_node = None;
+        self.frames.dynamic_config().list_publishers(|d| {
+            publisher_node = Some(d.node_id);
+            CallbackProgression::Stop
+        });
+        let Some(client) = publisher_node else { return false };
+        let mut dead = None;
+        let _ = self.frames.nodes(|state| match state {
+            NodeState::Dead(view) if *view.id() == client => {
+                dead = Some(view);
+                CallbackProgression::Stop
+            }
+            _ => CallbackProgression::Continue,
+        });
+        match dead {
+            Some(view) => {
+                if let Err(e) = view.try_remove_stale_resources() {
+                    tracing::debug!("the dead client's resources are left to the next cleanup: {e:?}");
+                }
+                false
+            }
+            None => true,
+        }
     }
 }
 

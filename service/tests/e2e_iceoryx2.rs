@@ -269,10 +269,18 @@ fn a_killed_client_is_noticed_within_a_second_and_others_go_on() {
     assert_eq!(status.status().unwrap().sessions.len(), 2);
     victim.kill9();
     let killed = Instant::now();
-    assert!(
-        eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.iter().all(|x| x.session != victim_id)).unwrap_or(false)),
-        "the dead client's session was not freed"
-    );
+    let mut last = String::new();
+    let freed = eventually(Duration::from_secs(3), || match status.status() {
+        Ok(s) => {
+            last = format!("sessions {:?}", s.sessions.iter().map(|x| x.session).collect::<Vec<_>>());
+            s.sessions.iter().all(|x| x.session != victim_id)
+        }
+        Err(e) => {
+            last = format!("status failed: {e}");
+            false
+        }
+    });
+    assert!(freed, "the dead client's session {victim_id} was not freed; last status: {last}");
     let noticed = killed.elapsed();
     eprintln!("kill -9 of a client: session freed after {noticed:?}");
     assert!(noticed < Duration::from_millis(1500), "noticed after {noticed:?}");
