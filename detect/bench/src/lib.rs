@@ -29,6 +29,7 @@
 //! the report carries this credit wherever it shows them.
 
 pub mod baseline;
+pub mod cli;
 pub mod metrics;
 pub mod report;
 pub mod scenes;

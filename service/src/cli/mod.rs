@@ -1,6 +1,7 @@
 //! The `lumen` command line: one module per subcommand.
 
 pub mod bench;
+pub mod import;
 pub mod serve;
 pub mod status;
 
@@ -24,6 +25,8 @@ pub enum Command {
     Serve(serve::ServeArgs),
     /// List the daemon's sessions with frame rates, latencies and contact counts.
     Status(status::StatusArgs),
+    /// Build a tube model from a triangle surface and its midline (ray casts per ring).
+    Import(import::ImportArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -36,6 +39,7 @@ impl Cli {
         let result = match self.command {
             Command::Serve(a) => serve::run(a),
             Command::Status(a) => status::run(a),
+            Command::Import(a) => import::run(a),
             Command::Bench(b) => b.run(),
         };
         match result {

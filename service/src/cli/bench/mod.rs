@@ -7,6 +7,9 @@ use clap::Subcommand;
 
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
+    /// Speed against error of the collision methods (thesis, default, parry) over precisions,
+    /// spokes and scenes; writes report.md, report.json and speed_vs_error.svg.
+    Detect(lumen_bench::cli::DetectArgs),
     /// Round trip frame -> contacts over iceoryx2 and zenoh, against a bare echo.
     Ipc(ipc::IpcArgs),
 }
@@ -14,6 +17,7 @@ pub enum BenchCommand {
 impl BenchCommand {
     pub fn run(self) -> CliResult {
         match self {
+            BenchCommand::Detect(a) => a.run().map(|_| ()).map_err(Into::into),
             BenchCommand::Ipc(a) => ipc::run(a),
         }
     }

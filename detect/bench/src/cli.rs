@@ -1,0 +1,187 @@
+//! The command line of the sweep, shared by `lumen bench detect` and the standalone
+//! `lumen-bench` binary: [`DetectArgs`] maps onto [`Options`], [`DetectArgs::run`] runs and
+//! writes the report.
+
+use crate::{Error, MethodKind, Options, ParryShape, Report};
+use clap::Args;
+use std::path::PathBuf;
+
+/// `lumen bench detect [--quick] [--scene gca|generated|all] [--out DIR] [--data PATH] [more]`.
+#[derive(Debug, Clone, Args)]
+pub struct DetectArgs {
+    /// The reduced sweep (under a minute on 2 cores): B = 32, x in {1, 4, 16}, 48 frames.
+    #[arg(long)]
+    pub quick: bool,
+    /// Scenes: gca, generated or all.
+    #[arg(long, default_value = "all")]
+    pub scene: String,
+    /// Where report.md, report.json and speed_vs_error.svg go.
+    #[arg(long, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Folder with the GCA colon (colon_20k_mm.obj, centerline_mm.csv); default
+    /// ../shared/data/colon-gca00090 next to the workspace.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Precisions x (samples per rod segment), comma-separated.
+    #[arg(long, value_delimiter = ',')]
+    pub x: Option<Vec<u32>>,
+    /// Spoke counts B, comma-separated.
+    #[arg(long, value_delimiter = ',')]
+    pub spokes: Option<Vec<usize>>,
+    /// Methods, comma-separated: default, thesis, parry.
+    #[arg(long, value_delimiter = ',', value_parser = parse_method)]
+    pub methods: Option<Vec<MethodKind>>,
+    /// Frames per scene (1 mm of insertion each).
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Untimed frames at the start of every pass.
+    #[arg(long)]
+    pub warmup: Option<usize>,
+    /// Passes per method (each frame keeps its fastest time).
+    #[arg(long)]
+    pub repeats: Option<usize>,
+    /// Judge every N-th frame against the reference.
+    #[arg(long)]
+    pub eval_every: Option<usize>,
+    /// And every N-th frame with escaped points (0: no more).
+    #[arg(long)]
+    pub eval_escapes_every: Option<usize>,
+    /// Reference subdivisions per ring segment, generated colon.
+    #[arg(long)]
+    pub ref_steps_generated: Option<usize>,
+    /// Reference subdivisions per ring segment, real colon.
+    #[arg(long)]
+    pub ref_steps_gca: Option<usize>,
+    /// Seed of the generated colon and of the escapes.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Skip the rings-doubled check.
+    #[arg(long)]
+    pub no_doubled: bool,
+    /// Axial refinements of the default method (Detector::set_refine).
+    #[arg(long)]
+    pub refine: Option<u32>,
+    /// parry: query capsules everywhere (default: round segments, capsules only where the axis
+    /// nears the wall).
+    #[arg(long)]
+    pub parry_capsules: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub no_progress: bool,
+    /// Only rewrite DIR/report.md and speed_vs_error.svg from DIR/report.json.
+    #[arg(long, value_name = "DIR", conflicts_with = "quick")]
+    pub replot: Option<PathBuf>,
+}
+
+fn parse_method(s: &str) -> Result<MethodKind, String> {
+    MethodKind::parse(s.trim()).ok_or_else(|| format!("unknown method {s:?} (default, thesis or parry)"))
+}
+
+impl DetectArgs {
+    /// The sweep these flags ask for.
+    pub fn options(&self) -> Result<Options, Error> {
+        let mut o = Options::from_flags(self.quick, Some(&self.scene), self.data.clone())?;
+        let set = |field: &mut usize, v: Option<usize>| {
+            if let Some(v) = v {
+                *field = v;
+            }
+        };
+        if let Some(x) = &self.x {
+            o.precisions = x.clone();
+        }
+        if let Some(b) = &self.spokes {
+            o.spokes = b.clone();
+        }
+        if let Some(m) = &self.methods {
+            o.methods = m.clone();
+        }
+        set(&mut o.frames, self.frames);
+        set(&mut o.warmup, self.warmup);
+        set(&mut o.repeats, self.repeats);
+        set(&mut o.eval_every, self.eval_every);
+        set(&mut o.eval_escapes_every, self.eval_escapes_every);
+        set(&mut o.reference_steps_generated, self.ref_steps_generated);
+        set(&mut o.reference_steps_gca, self.ref_steps_gca);
+        if let Some(s) = self.seed {
+            o.seed = s;
+        }
+        if let Some(r) = self.refine {
+            o.refine = r;
+        }
+        o.rings_doubled &= !self.no_doubled;
+        if self.parry_capsules {
+            o.parry_shape = ParryShape::Capsules;
+        }
+        Ok(o)
+    }
+
+    /// Runs the sweep (or the replot), writes the report into `--out` and prints the summary
+    /// rows at the default precision and spokes on stderr.
+    pub fn run(&self) -> Result<Report, Error> {
+        if let Some(dir) = &self.replot {
+            let text = std::fs::read_to_string(dir.join("report.json")).map_err(|e| Error::Io(format!("{}: {e}", dir.join("report.json").display())))?;
+            let report = Report::from_json(&text)?;
+            report.write(dir)?;
+            eprintln!("rewrote {}/report.md and speed_vs_error.svg", dir.display());
+            return Ok(report);
+        }
+        let report = crate::run(&self.options()?, !self.no_progress)?;
+        report.write(&self.out)?;
+        let (x, b) = (report.default_precision, report.default_spokes);
+        for scene in ["generated", "gca"] {
+            for r in report.runs_at(scene, b, x) {
+                eprintln!(
+                    "{scene:9} B{b} x{x} {:7}: median {:9.1} us  p99 {:9.1} us  missed {:3}  false {:3}  depth p99 {:>8} mm  normal p99 {:>7} deg  escapes {}/{}",
+                    r.method,
+                    r.median_us,
+                    r.p99_us,
+                    r.missed,
+                    r.false_contacts,
+                    r.depth_err_p99_mm.map_or("-".into(), |v| format!("{v:.4}")),
+                    r.normal_err_p99_deg.map_or("-".into(), |v| format!("{v:.2}")),
+                    r.escaped_detected,
+                    r.escaped_total
+                );
+            }
+        }
+        eprintln!("wrote {}/report.md, report.json, speed_vs_error.svg", self.out.display());
+        Ok(report)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cmd {
+        #[command(flatten)]
+        args: DetectArgs,
+    }
+
+    fn opts(line: &[&str]) -> Result<Options, String> {
+        let cmd = Cmd::try_parse_from(std::iter::once("lumen-bench").chain(line.iter().copied())).map_err(|e| e.to_string())?;
+        cmd.args.options().map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn flags_map_onto_the_options() {
+        let o = opts(&["--quick", "--scene", "generated", "--x", "2,8", "--methods", "default,parry", "--frames", "20", "--no-doubled"]).unwrap();
+        assert!(o.quick);
+        assert_eq!(o.precisions, vec![2, 8]);
+        assert_eq!(o.methods, vec![MethodKind::Default, MethodKind::Parry]);
+        assert_eq!(o.frames, 20);
+        assert!(!o.rings_doubled);
+        assert_eq!(o.spokes, Options::quick().spokes);
+        let full = opts(&[]).unwrap();
+        assert_eq!(full.precisions, Options::full().precisions);
+    }
+
+    #[test]
+    fn bad_flags_name_what_was_wrong() {
+        assert!(opts(&["--methods", "default,bullet"]).unwrap_err().contains("bullet"));
+        assert!(opts(&["--scene", "liver"]).unwrap_err().contains("liver"));
+        assert!(opts(&["--x", "two"]).unwrap_err().contains("two"));
+    }
+}
