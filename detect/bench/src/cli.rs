@@ -135,12 +135,12 @@ impl DetectArgs {
                     r.method,
                     r.median_us,
                     r.p99_us,
-                    r.missed,
-                    r.false_contacts,
-                    r.depth_err_p99_mm.map_or("-".into(), |v| format!("{v:.4}")),
-                    r.normal_err_p99_deg.map_or("-".into(), |v| format!("{v:.2}")),
-                    r.escaped_detected,
-                    r.escaped_total
+                    r.metrics.missed,
+                    r.metrics.false_contacts,
+                    r.metrics.depth_err_p99_mm.map_or("-".into(), |v| format!("{v:.4}")),
+                    r.metrics.normal_err_p99_deg.map_or("-".into(), |v| format!("{v:.2}")),
+                    r.metrics.escaped_detected,
+                    r.metrics.escaped_total
                 );
             }
         }

@@ -527,7 +527,8 @@ pub struct Tally {
 }
 
 /// The figures of a [`Tally`].
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Metrics {
     pub frames_evaluated: usize,
     pub contacts_evaluated: usize,

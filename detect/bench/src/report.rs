@@ -34,57 +34,11 @@ pub struct Run {
     pub contacts_per_frame: f64,
     /// Default method: rod samples re-acquired through the BVH per frame.
     pub reacquired_per_frame: Option<f64>,
-    pub missed: usize,
-    pub missed_dense: usize,
-    pub penetrating_dense: usize,
-    pub false_contacts: usize,
-    pub depth_err_mean_mm: Option<f64>,
-    pub depth_err_p99_mm: Option<f64>,
-    pub depth_err_max_mm: Option<f64>,
-    pub normal_err_p50_deg: Option<f64>,
-    pub normal_err_p99_deg: Option<f64>,
-    pub escaped_detected: usize,
-    pub escaped_total: usize,
-    pub frames_evaluated: usize,
-    pub contacts_evaluated: usize,
-    pub contacts_outside_domain: usize,
-    pub reference_bound_mm: f64,
-    pub reference_local_bound_p99_mm: Option<f64>,
-    pub reference_local_bound_max_mm: Option<f64>,
-    /// Not judged (the reference's wall point on or near a folded cell): contacts, penetrating
-    /// dense points, escaped samples.
-    pub excluded_contacts: usize,
-    pub excluded_dense: usize,
-    pub excluded_escapes: usize,
+    /// The accuracy figures (flattened: the JSON keeps one level).
+    #[serde(flatten)]
+    pub metrics: Metrics,
     /// Located failures (at most a few per kind).
     pub findings: Vec<Finding>,
-}
-
-impl Run {
-    /// Copies the accuracy figures in.
-    pub fn set_metrics(&mut self, m: Metrics, findings: &[Finding]) {
-        self.missed = m.missed;
-        self.missed_dense = m.missed_dense;
-        self.penetrating_dense = m.penetrating_dense;
-        self.false_contacts = m.false_contacts;
-        self.depth_err_mean_mm = m.depth_err_mean_mm;
-        self.depth_err_p99_mm = m.depth_err_p99_mm;
-        self.depth_err_max_mm = m.depth_err_max_mm;
-        self.normal_err_p50_deg = m.normal_err_p50_deg;
-        self.normal_err_p99_deg = m.normal_err_p99_deg;
-        self.escaped_detected = m.escaped_detected;
-        self.escaped_total = m.escaped_total;
-        self.frames_evaluated = m.frames_evaluated;
-        self.contacts_evaluated = m.contacts_evaluated;
-        self.contacts_outside_domain = m.contacts_outside_domain;
-        self.reference_bound_mm = m.reference_bound_mm;
-        self.reference_local_bound_p99_mm = m.reference_local_bound_p99_mm;
-        self.reference_local_bound_max_mm = m.reference_local_bound_max_mm;
-        self.excluded_contacts = m.excluded_contacts;
-        self.excluded_dense = m.excluded_dense;
-        self.excluded_escapes = m.excluded_escapes;
-        self.findings = findings.to_vec();
-    }
 }
 
 /// One scene at one spoke count.
@@ -289,16 +243,16 @@ impl Report {
             f(r.speedup_vs_thesis, 1),
             f(r.speedup_vs_parry, 1),
             r.contacts_per_frame,
-            r.missed,
-            r.missed_dense,
-            r.false_contacts,
-            f(r.depth_err_mean_mm, 4),
-            f(r.depth_err_p99_mm, 4),
-            f(r.depth_err_max_mm, 3),
-            f(r.normal_err_p50_deg, 2),
-            f(r.normal_err_p99_deg, 2),
-            r.escaped_detected,
-            r.escaped_total
+            r.metrics.missed,
+            r.metrics.missed_dense,
+            r.metrics.false_contacts,
+            f(r.metrics.depth_err_mean_mm, 4),
+            f(r.metrics.depth_err_p99_mm, 4),
+            f(r.metrics.depth_err_max_mm, 3),
+            f(r.metrics.normal_err_p50_deg, 2),
+            f(r.metrics.normal_err_p99_deg, 2),
+            r.metrics.escaped_detected,
+            r.metrics.escaped_total
         )
     }
 
@@ -358,8 +312,8 @@ impl Report {
                 i.eval_frames.iter().map(|f| f.to_string()).collect::<Vec<_>>().join(","),
                 i.reference_steps,
                 i.reference_bound_mm,
-                f(d.and_then(|d| d.reference_local_bound_p99_mm), 4),
-                f(d.and_then(|d| d.reference_local_bound_max_mm), 4),
+                f(d.and_then(|d| d.metrics.reference_local_bound_p99_mm), 4),
+                f(d.and_then(|d| d.metrics.reference_local_bound_max_mm), 4),
                 i.build_s,
                 i.judge_s
             );
@@ -436,7 +390,7 @@ impl Report {
         s.push_str(&"---|".repeat(scenes.len()));
         s.push('\n');
         let mark = |ok: bool| if ok { "met" } else { "**not met**" };
-        let p99 = |r: Option<&Run>| r.and_then(|r| r.depth_err_p99_mm);
+        let p99 = |r: Option<&Run>| r.and_then(|r| r.metrics.depth_err_p99_mm);
         let mut row = |name: &str, cell: &dyn Fn(&str) -> String| {
             let _ = write!(s, "| {name} |");
             for sc in &scenes {
@@ -462,25 +416,25 @@ impl Report {
         }
         row("zero missed contacts", &|sc| {
             let d = self.run(sc, "default", b, x).unwrap();
-            format!("{} ({} dense points), {}", d.missed, d.missed_dense, mark(d.missed == 0))
+            format!("{} ({} dense points), {}", d.metrics.missed, d.metrics.missed_dense, mark(d.metrics.missed == 0))
         });
         row("p99 depth error <= 0.05 mm", &|sc| {
             let d = self.run(sc, "default", b, x).unwrap();
-            match d.depth_err_p99_mm {
+            match d.metrics.depth_err_p99_mm {
                 Some(e) => format!("{e:.4} mm, {}", mark(e <= 0.05)),
                 None => "no contact judged".into(),
             }
         });
         row("p99 normal error <= 3 degrees", &|sc| {
             let d = self.run(sc, "default", b, x).unwrap();
-            match d.normal_err_p99_deg {
+            match d.metrics.normal_err_p99_deg {
                 Some(e) => format!("{e:.2} deg, {}", mark(e <= 3.0)),
                 None => "no contact judged".into(),
             }
         });
         row("all escaped samples detected", &|sc| {
             let d = self.run(sc, "default", b, x).unwrap();
-            format!("{} / {}, {}", d.escaped_detected, d.escaped_total, mark(d.escaped_detected == d.escaped_total))
+            format!("{} / {}, {}", d.metrics.escaped_detected, d.metrics.escaped_total, mark(d.metrics.escaped_detected == d.metrics.escaped_total))
         });
         for how in ["denser", "longer"] {
             row(&format!("doubling the rings ({how}) changes the time by < 10%"), &|sc| match self.rings_doubled.iter().find(|r| r.scene == *sc && r.how == how) {
@@ -531,7 +485,7 @@ impl Report {
                     .runs
                     .iter()
                     .filter(|r| &r.scene == scene && r.median_us > 0.0)
-                    .map(|r| (r, r.median_us.log10(), r.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR).log10()))
+                    .map(|r| (r, r.median_us.log10(), r.metrics.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR).log10()))
                     .collect();
                 if pts.is_empty() {
                     continue;

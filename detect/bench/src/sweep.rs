@@ -230,7 +230,8 @@ pub fn scene(kind: SceneKind, opts: &Options, gca: Option<&GcaData>, pb: &Progre
         let judge_s = t0.elapsed().as_secs_f64();
         for (((x, m), _), tally) in records.iter().zip(&tallies) {
             if let Some(run) = runs.iter_mut().find(|r| r.x == *x && r.method == m.name()) {
-                run.set_metrics(tally.metrics(), &tally.findings);
+                run.metrics = tally.metrics();
+                run.findings = tally.findings.clone();
             }
         }
         out.infos.push(SceneInfo {

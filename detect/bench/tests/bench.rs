@@ -236,7 +236,7 @@ fn tiny_sweep_writes_a_complete_report() {
     assert_eq!(s.rings, 101, "300 mm at 3 mm");
     for r in &report.runs {
         assert_eq!(r.frames_timed, 8, "{}", r.method);
-        assert_eq!(r.frames_evaluated, 2);
+        assert_eq!(r.metrics.frames_evaluated, 2);
         assert!(r.median_us > 0.0 && r.p99_us >= r.median_us);
         assert_eq!(r.rings, 101);
     }
@@ -250,9 +250,9 @@ fn tiny_sweep_writes_a_complete_report() {
         assert_eq!(pa.speedup_vs_parry, Some(1.0));
         assert!(d.speedup_vs_thesis.unwrap() > 0.0 && d.speedup_vs_parry.unwrap() > 0.0);
         // All three judged on the same samples.
-        assert_eq!(d.escaped_total, th.escaped_total);
-        assert_eq!(d.penetrating_dense, pa.penetrating_dense);
-        assert!(d.contacts_evaluated > 0, "the scope presses on the wall");
+        assert_eq!(d.metrics.escaped_total, th.metrics.escaped_total);
+        assert_eq!(d.metrics.penetrating_dense, pa.metrics.penetrating_dense);
+        assert!(d.metrics.contacts_evaluated > 0, "the scope presses on the wall");
     }
     assert_eq!(report.rings_doubled.len(), 2);
     for (dbl, how, rings) in [(&report.rings_doubled[0], "denser", 201), (&report.rings_doubled[1], "longer", 202)] {
