@@ -150,6 +150,44 @@ struct Channels {
     _events: (EventService, EventService, ContactsService),
 }
 
+/// Creates one of a session's two channels: a publish-subscribe service of `[T]` slices with
+/// header `H` (one publisher; the session's other side and every observer subscribe; the newest
+/// sample wins when a subscriber falls behind) and its event, which also tells when a peer dies.
+fn channel<T: std::fmt::Debug + IceoryxSend + ZeroCopySend, H: std::fmt::Debug + ZeroCopySend>(
+    node: &Node<Svc>,
+    name: &str,
+    what: &str,
+    subs: usize,
+    buffer: usize,
+    borrowed: usize,
+) -> Result<(iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, EventService), ClientError> {
+    let e = |step: &str, err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("creating the {what} {step}: {err:?}"));
+    let name = service_name(name)?;
+    let data = node
+        .service_builder(&name)
+        .publish_subscribe::<[T]>()
+        .user_header::<H>()
+        .max_publishers(1)
+        .max_subscribers(subs)
+        .subscriber_max_buffer_size(buffer)
+        .subscriber_max_borrowed_samples(borrowed)
+        .history_size(0)
+        .enable_safe_overflow(true)
+        .max_nodes(subs + 1)
+        .create()
+        .map_err(|x| e("service", &x))?;
+    let events = node
+        .service_builder(&name)
+        .event()
+        .max_notifiers(1)
+        .max_listeners(subs)
+        .max_nodes(subs + 1)
+        .notifier_dead_event(EVENT_PEER_DIED)
+        .create()
+        .map_err(|x| e("event", &x))?;
+    Ok((data, events))
+}
+
 impl Channels {
     fn create(node: &Node<Svc>, plan: &Plan, observers: usize) -> Result<Self, ClientError> {
         let info = &plan.entry.info;
@@ -158,52 +196,8 @@ impl Channels {
             let what = what.to_owned();
             move |err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("{what}: {err:?}"))
         };
-        let fname = service_name(&info.frame)?;
-        let frames = node
-            .service_builder(&fname)
-            .publish_subscribe::<[f32]>()
-            .user_header::<FrameHeader>()
-            .max_publishers(1)
-            .max_subscribers(subs)
-            .subscriber_max_buffer_size(FRAME_BUFFER)
-            .subscriber_max_borrowed_samples(FRAME_BORROWED)
-            .history_size(0)
-            .enable_safe_overflow(true)
-            .max_nodes(subs + 1)
-            .create()
-            .map_err(|x| e("creating the frame service")(&x))?;
-        let frame_events = node
-            .service_builder(&fname)
-            .event()
-            .max_notifiers(1)
-            .max_listeners(subs)
-            .max_nodes(subs + 1)
-            .notifier_dead_event(EVENT_PEER_DIED)
-            .create()
-            .map_err(|x| e("creating the frame event")(&x))?;
-        let cname = service_name(&info.contacts)?;
-        let contacts = node
-            .service_builder(&cname)
-            .publish_subscribe::<[Contact]>()
-            .user_header::<ContactsHeader>()
-            .max_publishers(1)
-            .max_subscribers(subs)
-            .subscriber_max_buffer_size(CONTACTS_BUFFER)
-            .subscriber_max_borrowed_samples(CONTACTS_BORROWED)
-            .history_size(0)
-            .enable_safe_overflow(true)
-            .max_nodes(subs + 1)
-            .create()
-            .map_err(|x| e("creating the contacts service")(&x))?;
-        let contact_events = node
-            .service_builder(&cname)
-            .event()
-            .max_notifiers(1)
-            .max_listeners(subs)
-            .max_nodes(subs + 1)
-            .notifier_dead_event(EVENT_PEER_DIED)
-            .create()
-            .map_err(|x| e("creating the contacts event")(&x))?;
+        let (frames, frame_events) = channel::<f32, FrameHeader>(node, &info.frame, "frame", subs, FRAME_BUFFER, FRAME_BORROWED)?;
+        let (contacts, contact_events) = channel::<Contact, ContactsHeader>(node, &info.contacts, "contacts", subs, CONTACTS_BUFFER, CONTACTS_BORROWED)?;
         let subscriber = frames.subscriber_builder().buffer_size(FRAME_BUFFER).create().map_err(|x| e("subscribing to frames")(&x))?;
         let listener = frame_events.listener_builder().create().map_err(|x| e("listening for frames")(&x))?;
         let publisher = contacts
