@@ -62,7 +62,10 @@ impl ZenohClient {
     pub(crate) fn observe(&self, info: SessionInfo) -> Result<ZenohObserver, Error> {
         let both = format!("{}/*", info.frame.rsplit_once('/').map_or(info.frame.as_str(), |(root, _)| root));
         let sub = self.session.declare_subscriber(both).with(RingChannel::new(16)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
-        Ok(ZenohObserver { sub, info, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
+        // The session lives while its client's liveliness token and the daemon's do.
+        let watch = |key: &str| self.session.liveliness().declare_subscriber(key).wait().map_err(|e| Error::zenoh(&format!("watching {key}"), e));
+        let ended = [watch(&info.alive)?, watch(DAEMON_ALIVE)?];
+        Ok(ZenohObserver { sub, ended, info, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
     }
 }
 
@@ -230,6 +233,8 @@ impl ZenohSession {
 /// An observer over zenoh: one subscription to the session's frame and contacts keys.
 pub(crate) struct ZenohObserver {
     sub: Subscriber<RingChannelHandler<Sample>>,
+    /// Liveliness of the session's client and of the daemon: a `Delete` ends the session.
+    ended: [Subscriber<FifoChannelHandler<Sample>>; 2],
     pub(crate) info: SessionInfo,
     frame_header: FrameHeader,
     state: Vec<f32>,
@@ -237,12 +242,23 @@ pub(crate) struct ZenohObserver {
     contacts: Vec<Contact>,
 }
 
+/// How often a waiting observer looks whether its session ended.
+const LIVENESS_PERIOD: Duration = Duration::from_millis(50);
+
 impl ZenohObserver {
     pub(crate) fn next(&mut self, timeout: Duration) -> Result<Observed<'_>, Error> {
         let deadline = Instant::now() + timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let Some(sample) = self.sub.recv_timeout(left).map_err(|e| Error::zenoh("observing", e))? else { return Err(Error::Timeout(timeout)) };
+            let Some(sample) = self.sub.recv_timeout(left.min(LIVENESS_PERIOD)).map_err(|e| Error::zenoh("observing", e))? else {
+                if self.ended.iter().any(|w| std::iter::from_fn(|| w.try_recv().ok().flatten()).any(|s| s.kind() == SampleKind::Delete)) {
+                    return Err(Error::SessionEnded(self.info.session));
+                }
+                if left <= LIVENESS_PERIOD {
+                    return Err(Error::Timeout(timeout));
+                }
+                continue;
+            };
             let bytes = sample.payload().to_bytes();
             if sample.key_expr().as_str() == self.info.contacts {
                 self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;

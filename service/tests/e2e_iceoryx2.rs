@@ -21,40 +21,11 @@ fn scene() -> TestScene {
     TestScene::new(40, 16, 24)
 }
 
-/// This test binary re-run as a client process: `LUMEN_E2E_ROLE=loop` opens a session and
-/// submits frames forever, printing `session ID` once and `ok FRAME CONTACTS` per reply, until
-/// its stdin closes.
+/// This test binary re-run as a client process ([`lumen_e2e::client_loop`]).
 #[test]
 fn child_role() {
-    let Ok(role) = std::env::var("LUMEN_E2E_ROLE") else { return };
-    assert_eq!(role, "loop");
-    let scene = scene();
-    let client = Client::local().expect("client");
-    let mut s = client.open_session(&scene.spec).expect("open");
-    // A newline first: libtest has just printed "test child_role ... " without one.
-    println!("\nsession {}", s.id());
-    let stdin_closed = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let flag = stdin_closed.clone();
-    std::thread::spawn(move || {
-        let mut sink = String::new();
-        while std::io::stdin().read_line(&mut sink).map(|n| n > 0).unwrap_or(false) {}
-        flag.store(true, std::sync::atomic::Ordering::SeqCst);
-    });
-    let mut k = 0u64;
-    while !stdin_closed.load(std::sync::atomic::Ordering::SeqCst) {
-        let state = scene.state(k);
-        match s.submit_state(&state) {
-            Ok(_) => match s.contacts(Duration::from_millis(500)) {
-                Ok(r) => println!("ok {} {} {}", r.frame(), r.contacts().len(), s.id()),
-                Err(e) => eprintln!("child: contacts: {e}"),
-            },
-            Err(e) => {
-                eprintln!("child: submit: {e}");
-                std::thread::sleep(Duration::from_millis(20));
-            }
-        }
-        k += 1;
-        std::thread::sleep(Duration::from_millis(2));
+    if std::env::var("LUMEN_E2E_ROLE").is_ok() {
+        lumen_e2e::client_loop(Client::local().expect("client"), &scene());
     }
 }
 
@@ -72,9 +43,7 @@ fn leftovers(prefix: &str) -> Vec<String> {
 }
 
 fn spawn_client(prefix: &str) -> ChildProcess {
-    let mut cmd = Command::new(std::env::current_exe().unwrap());
-    cmd.args(["--exact", "child_role", "--nocapture", "--test-threads", "1"]).env("LUMEN_E2E_ROLE", "loop").env("LUMEN_IOX2_PREFIX", prefix);
-    ChildProcess::spawn(cmd)
+    lumen_e2e::spawn_client_role("child_role", &[("LUMEN_IOX2_PREFIX", prefix)])
 }
 
 #[test]

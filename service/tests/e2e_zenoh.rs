@@ -1,16 +1,52 @@
 //! End-to-end over zenoh (TCP loopback): the real daemon as a child process with its own port
-//! and iceoryx2 prefix; clients in this process.
+//! and iceoryx2 prefix; clients in this process, or in child processes (this test binary re-run
+//! in a client role) where a test kills them.
 
 use lumen_client::{Client, Observed};
 use lumen_detect::Detector;
 use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
 use lumen_proto::wire::{encode_frame, FrameHeader, Status, FRAME_HEADER_BYTES};
 use std::path::Path;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use zenoh::Wait;
 
 const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
 const WAIT: Duration = Duration::from_secs(3);
+
+/// This test binary re-run as a zenoh client process ([`lumen_e2e::client_loop`]) of the daemon
+/// at `LUMEN_E2E_ENDPOINT`.
+#[test]
+fn child_role() {
+    if let (Ok(_), Ok(endpoint)) = (std::env::var("LUMEN_E2E_ROLE"), std::env::var("LUMEN_E2E_ENDPOINT")) {
+        lumen_e2e::client_loop(Client::zenoh(&endpoint).expect("client"), &TestScene::new(40, 16, 24));
+    }
+}
+
+#[test]
+fn a_killed_zenoh_client_is_noticed_within_a_second_and_others_go_on() {
+    let d = daemon("zk9");
+    let endpoint = d.endpoint();
+    let spawn = || lumen_e2e::spawn_client_role("child_role", &[("LUMEN_E2E_ENDPOINT", endpoint.as_str())]);
+    let (mut victim, mut survivor) = (spawn(), spawn());
+    let victim_id: u64 = victim.line_starting("session ", Duration::from_secs(20)).expect("victim opened").split(' ').nth(1).unwrap().parse().unwrap();
+    survivor.line_starting("session ", Duration::from_secs(20)).expect("survivor opened");
+    assert!(victim.line_starting("ok ", WAIT).is_some() && survivor.line_starting("ok ", WAIT).is_some());
+    let status = Client::zenoh(&endpoint).unwrap();
+    assert_eq!(status.status().unwrap().sessions.len(), 2);
+    victim.kill9();
+    let killed = Instant::now();
+    let freed = lumen_e2e::eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.iter().all(|x| x.session != victim_id)).unwrap_or(false));
+    let noticed = killed.elapsed();
+    assert!(freed, "the dead client's session {victim_id} was not freed");
+    eprintln!("kill -9 of a zenoh client: session freed after {noticed:?}");
+    assert!(noticed < Duration::from_millis(1500), "noticed after {noticed:?}");
+    for _ in 0..10 {
+        assert!(survivor.line_starting("ok ", WAIT).is_some(), "the other client stopped getting replies");
+    }
+    survivor.close_stdin();
+    assert!(survivor.wait_exit(Duration::from_secs(10)).is_some());
+    assert!(lumen_e2e::eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.is_empty()).unwrap_or(false)));
+}
 
 fn daemon(tag: &str) -> Daemon {
     Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), &[])
@@ -57,8 +93,16 @@ fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
     let st = client.status().unwrap();
     assert_eq!(st.sessions.len(), 1);
     assert_eq!(st.sessions[0].frames, 30);
+    let id = s.id();
     drop(s);
-    // The session ends when the client's liveliness token goes away.
+    // The session ends when the client's liveliness token goes away; the observer is told.
+    let end = loop {
+        match obs.next(WAIT) {
+            Ok(_) => continue,
+            Err(e) => break e,
+        }
+    };
+    assert!(matches!(end, lumen_client::Error::SessionEnded(x) if x == id), "{end}");
     assert!(lumen_e2e::eventually(WAIT, || client.status().map(|s| s.sessions.is_empty()).unwrap_or(false)));
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }

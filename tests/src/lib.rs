@@ -236,3 +236,47 @@ pub fn same_bits(a: &[Contact], b: &[Contact]) -> bool {
     };
     enc(a) == enc(b)
 }
+
+/// A client process's loop, for tests that kill clients: opens a session of `scene` through
+/// `client` and submits frames until its stdin closes, printing `session ID` once (after a
+/// newline: libtest has just printed "test NAME ... " without one) and `ok FRAME CONTACTS ID`
+/// per reply. Errors go to stderr and the loop goes on (a session reopens by itself when a
+/// daemon comes back).
+pub fn client_loop(client: lumen_client::Client, scene: &TestScene) {
+    let mut s = client.open_session(&scene.spec).expect("open");
+    println!("\nsession {}", s.id());
+    let stdin_closed = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stdin_closed.clone();
+    std::thread::spawn(move || {
+        let mut sink = String::new();
+        while std::io::stdin().read_line(&mut sink).map(|n| n > 0).unwrap_or(false) {}
+        flag.store(true, Ordering::SeqCst);
+    });
+    let mut k = 0u64;
+    while !stdin_closed.load(Ordering::SeqCst) {
+        let state = scene.state(k);
+        match s.submit_state(&state) {
+            Ok(_) => match s.contacts(Duration::from_millis(500)) {
+                Ok(r) => println!("ok {} {} {}", r.frame(), r.contacts().len(), s.id()),
+                Err(e) => eprintln!("child: contacts: {e}"),
+            },
+            Err(e) => {
+                eprintln!("child: submit: {e}");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+        k += 1;
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// This test binary re-run as a client process in its test `role_test` (which calls
+/// [`client_loop`] when `LUMEN_E2E_ROLE` is set), with extra environment `envs`.
+pub fn spawn_client_role(role_test: &str, envs: &[(&str, &str)]) -> ChildProcess {
+    let mut cmd = std::process::Command::new(std::env::current_exe().expect("the test binary"));
+    cmd.args(["--exact", role_test, "--nocapture", "--test-threads", "1"]).env("LUMEN_E2E_ROLE", "loop");
+    for (k, v) in envs {
+        cmd.env(k, v);
+    }
+    ChildProcess::spawn(cmd)
+}
