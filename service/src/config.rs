@@ -9,6 +9,8 @@
 //! listen = ["tcp/0.0.0.0:7447"]
 //! connect = []              # e.g. a router: ["tcp/10.0.0.1:7447"]
 //! mode = "router"           # "router" or "peer"
+//! # For tls/ endpoints: the daemon's certificate chain and key (PEM); clients trust its CA.
+//! # tls = { certificate = "server.pem", private_key = "server.key" }
 //!
 //! [limits]
 //! max_sessions = 16
@@ -54,11 +56,23 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// `router` (clients in client mode route through the daemon) or `peer`.
     pub mode: String,
+    /// Certificate and key for `tls/` endpoints.
+    pub tls: Option<TlsFiles>,
+}
+
+/// The daemon's TLS identity: PEM files of its certificate chain and private key. Clients
+/// connect to `tls/HOST:PORT` trusting the CA that signed it
+/// (`lumen_client::Client::zenoh_tls`); the certificate must name `HOST`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TlsFiles {
+    pub certificate: std::path::PathBuf,
+    pub private_key: std::path::PathBuf,
 }
 
 impl Default for ZenohConfig {
     fn default() -> Self {
-        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into() }
+        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into(), tls: None }
     }
 }
 
@@ -112,6 +126,18 @@ impl ServeConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         if !self.iceoryx2.enabled && !self.zenoh.enabled() {
             return Err(ConfigError::Invalid("nothing to serve: iceoryx2 is disabled and zenoh has no listen/connect endpoint (try --zenoh-listen tcp/0.0.0.0:7447)".into()));
+        }
+        let tls_endpoint = self.zenoh.listen.iter().any(|e| e.starts_with("tls/"));
+        match &self.zenoh.tls {
+            None if tls_endpoint => return Err(ConfigError::Invalid("a tls/ endpoint needs the daemon's certificate and key ([zenoh] tls = { certificate, private_key }, or --zenoh-tls-cert and --zenoh-tls-key)".into())),
+            Some(t) => {
+                for (what, p) in [("certificate", &t.certificate), ("private key", &t.private_key)] {
+                    if !p.is_file() {
+                        return Err(ConfigError::Invalid(format!("zenoh TLS {what} {}: no such file", p.display())));
+                    }
+                }
+            }
+            None => {}
         }
         if !matches!(self.zenoh.mode.as_str(), "router" | "peer") {
             return Err(ConfigError::Invalid(format!("zenoh mode {:?}: use \"router\" or \"peer\"", self.zenoh.mode)));

@@ -25,6 +25,7 @@ pub struct Remote {
     pub mode: String,
     pub listen: Vec<String>,
     pub connect: Vec<String>,
+    pub tls: Option<crate::config::TlsFiles>,
     pub registry: Arc<Registry>,
 }
 
@@ -36,6 +37,12 @@ impl Remote {
         // at the largest frame a valid spec can have (instead of zenoh's default 1 GiB).
         let cap = 4 * lumen_proto::limits::MAX_STATE_FLOATS + FRAME_HEADER_BYTES + 1024;
         cfg.insert_json5("transport/link/rx/max_message_size", &cap.to_string()).map_err(|e| format!("zenoh config: {e}"))?;
+        if let Some(tls) = &self.tls {
+            for (key, path) in [("listen_certificate", &tls.certificate), ("listen_private_key", &tls.private_key)] {
+                let value = serde_json::to_string(&path.display().to_string()).expect("a string");
+                cfg.insert_json5(&format!("transport/link/tls/{key}"), &value).map_err(|e| format!("zenoh config: {e}"))?;
+            }
+        }
         let z = zenoh::open(cfg).wait().map_err(|e| format!("zenoh: cannot open a session listening on {:?}: {e}", self.listen))?;
         let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| format!("zenoh liveliness: {e}"))?;
         let queryable = z.declare_queryable(CONTROL).wait().map_err(|e| format!("zenoh queryable {CONTROL}: {e}"))?;

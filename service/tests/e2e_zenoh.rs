@@ -214,3 +214,65 @@ fn zenoh_clients_resume_after_a_daemon_restart() {
     drop(s);
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }
+
+/// A certificate authority and a daemon certificate for `localhost` signed by it, as PEM files
+/// in a fresh folder: (folder, CA, certificate, key).
+fn tls_files(tag: &str) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+    use rcgen::{BasicConstraints, CertificateParams, IsCa, Issuer, KeyPair};
+    let dir = std::env::temp_dir().join(format!("lumen-tls-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let ca_key = KeyPair::generate().unwrap();
+    let mut ca_params = CertificateParams::new(Vec::<String>::new()).unwrap();
+    ca_params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+    let ca = ca_params.self_signed(&ca_key).unwrap();
+    let issuer = Issuer::new(ca_params, ca_key);
+    let key = KeyPair::generate().unwrap();
+    let cert = CertificateParams::new(vec!["localhost".to_string()]).unwrap().signed_by(&key, &issuer).unwrap();
+    let paths = (dir.join("ca.pem"), dir.join("server.pem"), dir.join("server.key"));
+    std::fs::write(&paths.0, ca.pem()).unwrap();
+    std::fs::write(&paths.1, cert.pem()).unwrap();
+    std::fs::write(&paths.2, key.serialize_pem()).unwrap();
+    (dir, paths.0, paths.1, paths.2)
+}
+
+#[test]
+fn tls_round_trip_with_the_daemons_ca_and_refusals_without_it() {
+    let (dir, ca, cert, key) = tls_files("rt");
+    let port = free_port();
+    let endpoint = format!("tls/localhost:{port}");
+    let (cert_s, key_s) = (cert.display().to_string(), key.display().to_string());
+    let d = Daemon::start(Path::new(LUMEN), &unique_prefix("ztls"), None, &["--zenoh-listen", &endpoint, "--zenoh-tls-cert", &cert_s, "--zenoh-tls-key", &key_s]);
+    let scene = TestScene::new(40, 16, 24);
+    let client = Client::zenoh_tls(&endpoint, &ca).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    for k in 0..10 {
+        let state = scene.state(k);
+        s.frame().unwrap().copy_from_slice(&state);
+        s.submit().unwrap();
+        let r = s.contacts(WAIT).unwrap();
+        assert!(same_bits(r.contacts(), reference.detect(&state).unwrap()), "frame {k}");
+    }
+    drop(s);
+    // A CA that did not sign the daemon's certificate is not trusted.
+    let (other_dir, other_ca, _, _) = tls_files("other");
+    let refused = Client::zenoh_tls(&endpoint, &other_ca).and_then(|c| c.status());
+    assert!(matches!(refused, Err(lumen_client::Error::NoDaemon { .. })), "{:?}", refused.map(|_| ()));
+    // Plain TCP does not speak to a TLS port.
+    let plain = Client::zenoh(&format!("tcp/localhost:{port}")).and_then(|c| c.status());
+    assert!(plain.is_err());
+    // A missing root certificate is named.
+    let missing = Client::zenoh_tls(&endpoint, &dir.join("absent.pem")).err().unwrap().to_string();
+    assert!(missing.contains("absent.pem"), "{missing}");
+    assert_eq!(d.terminate().map(|s| s.success()), Some(true));
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&other_dir);
+}
+
+#[test]
+fn a_tls_endpoint_without_a_certificate_is_refused_at_start() {
+    let out = std::process::Command::new(LUMEN).args(["serve", "--no-iceoryx2", "--zenoh-listen", "tls/localhost:1"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("certificate"), "{}", String::from_utf8_lossy(&out.stderr));
+}

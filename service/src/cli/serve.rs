@@ -27,6 +27,12 @@ pub struct ServeArgs {
     /// zenoh mode: router or peer.
     #[arg(long = "zenoh-mode")]
     pub zenoh_mode: Option<String>,
+    /// PEM certificate (chain) of the daemon for tls/ endpoints.
+    #[arg(long = "zenoh-tls-cert", value_name = "PEM", requires = "zenoh_tls_key")]
+    pub zenoh_tls_cert: Option<PathBuf>,
+    /// PEM private key of that certificate.
+    #[arg(long = "zenoh-tls-key", value_name = "PEM", requires = "zenoh_tls_cert")]
+    pub zenoh_tls_key: Option<PathBuf>,
     /// Most sessions at once.
     #[arg(long)]
     pub max_sessions: Option<usize>,
@@ -53,6 +59,9 @@ impl ServeArgs {
         }
         if !self.zenoh_connect.is_empty() {
             c.zenoh.connect = self.zenoh_connect.clone();
+        }
+        if let (Some(certificate), Some(private_key)) = (&self.zenoh_tls_cert, &self.zenoh_tls_key) {
+            c.zenoh.tls = Some(crate::config::TlsFiles { certificate: certificate.clone(), private_key: private_key.clone() });
         }
         if let Some(m) = &self.zenoh_mode {
             c.zenoh.mode = m.clone();
