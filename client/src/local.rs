@@ -258,10 +258,6 @@ impl LocalSession {
         Ok(n)
     }
 
-    pub(crate) fn last_view(&self) -> Option<ContactsView<'_>> {
-        self.last.as_ref().map(|s| ContactsView { header: s.user_header(), contacts: s.payload() })
-    }
-
     pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
         let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
         self.last = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))?;
@@ -296,6 +292,55 @@ impl LocalSession {
                 return Err(Error::Timeout(timeout));
             }
         }
+    }
+}
+
+impl LocalSession {
+    /// [`LocalSession::contacts`] for async code: the contacts listener's file descriptor is
+    /// awaited through tokio's reactor (no polling, no thread blocked).
+    pub(crate) async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        self.last = None;
+        let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
+        if tokio::runtime::Handle::try_current().is_err() {
+            return Err(Error::iox("waiting asynchronously", "contacts_async needs a tokio runtime (with I/O enabled)"));
+        }
+        // SAFETY (both): the descriptor belongs to the session's listener, which stays open and
+        // the same until `fd` is dropped (the ports are replaced only through `&mut self`, which
+        // this call holds, and `fd` is dropped before `lose` closes them).
+        let fd = ListenerFd(unsafe { ports.listener.file_descriptor().native_handle() });
+        let fd = unsafe { tokio::io::unix::AsyncFd::register_with_interest(fd, tokio::io::Interest::READABLE) }.map_err(|e| Error::iox("watching the contacts event", e))?;
+        loop {
+            let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
+            // Consume the wake-ups first: a reply sent after the look below brings a new one.
+            let mut died = false;
+            ports.listener.try_wait(|e| died |= e.id == EVENT_PEER_DIED).map_err(|e| Error::iox("consuming contacts events", e))?;
+            if let Some(s) = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                let s = self.last.insert(s);
+                return Ok(ContactsView { header: s.user_header(), contacts: s.payload() });
+            }
+            let left = deadline.saturating_duration_since(tokio::time::Instant::now());
+            let woke = !left.is_zero() && !died && tokio::time::timeout(left.min(LIVENESS_PERIOD), fd.readable()).await.is_ok_and(|r| r.map(|mut g| g.clear_ready()).is_ok());
+            if !woke {
+                if self.daemon_gone() {
+                    drop(fd); // deregistered before `lose` closes the descriptor
+                    return Err(self.lose());
+                }
+                if deadline <= tokio::time::Instant::now() {
+                    return Err(Error::Timeout(timeout));
+                }
+            }
+        }
+    }
+}
+
+/// A listener's descriptor, lent to tokio's reactor for the length of one wait.
+#[derive(Debug)]
+struct ListenerFd(std::os::fd::RawFd);
+
+impl std::os::fd::AsRawFd for ListenerFd {
+    fn as_raw_fd(&self) -> std::os::fd::RawFd {
+        self.0
     }
 }
 

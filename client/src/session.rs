@@ -120,24 +120,11 @@ impl Session {
         }
     }
 
-    /// The next reply, asynchronously (needs a tokio runtime). Zenoh awaits the subscriber;
-    /// iceoryx2 looks every 50 us between timer sleeps (use [`Session::contacts`] on a thread
-    /// for the lowest latency).
+    /// The next reply, asynchronously (needs a tokio runtime with I/O enabled): zenoh awaits
+    /// the subscriber, iceoryx2 the contacts event's file descriptor. Neither polls.
     pub async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
         match &mut self.inner {
-            Inner::Local(s) => {
-                let deadline = tokio::time::Instant::now() + timeout;
-                loop {
-                    if s.try_contacts()?.is_some() {
-                        break;
-                    }
-                    if tokio::time::Instant::now() >= deadline {
-                        return Err(Error::Timeout(timeout));
-                    }
-                    tokio::time::sleep(Duration::from_micros(50)).await;
-                }
-                Ok(s.last_view().expect("just received"))
-            }
+            Inner::Local(s) => s.contacts_async(timeout).await,
             Inner::Zenoh(s) => s.contacts_async(timeout).await,
         }
     }

@@ -290,3 +290,27 @@ fn daemon_killed_and_restarted_clients_resume_and_nothing_is_left() {
     assert!(eventually(WAIT, || leftovers(&prefix).is_empty()), "leftovers: {:?}", shm_files(&prefix));
     assert!(shm_files(&prefix).is_empty());
 }
+
+#[test]
+fn async_replies_match_the_blocking_ones_and_time_out() {
+    let prefix = unique_prefix("async");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let client = client(&prefix);
+    let mut s = client.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+    rt.block_on(async {
+        for k in 0..20u64 {
+            let state = scene.state(k);
+            s.frame().unwrap().copy_from_slice(&state);
+            s.submit().unwrap();
+            let r = s.contacts_async(WAIT).await.unwrap();
+            assert_eq!(r.frame(), k);
+            assert!(same_bits(r.contacts(), reference.detect(&state).unwrap()), "frame {k}");
+        }
+        // Nothing submitted: the wait ends with a timeout, not a reply.
+        let quiet = s.contacts_async(Duration::from_millis(300)).await;
+        assert!(matches!(quiet, Err(Error::Timeout(_))), "{:?}", quiet.map(|r| r.frame()));
+    });
+}
