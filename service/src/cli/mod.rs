@@ -1,8 +1,11 @@
 //! The `lumen` command line: one module per subcommand.
 
 pub mod bench;
+pub mod record;
+pub mod replay;
 pub mod serve;
 pub mod status;
+pub mod transport;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -24,6 +27,10 @@ pub enum Command {
     Serve(serve::ServeArgs),
     /// List the daemon's sessions with frame rates, latencies and contact counts.
     Status(status::StatusArgs),
+    /// Record a session's frames and contacts to an MCAP file until it ends or Ctrl-C.
+    Record(record::RecordArgs),
+    /// Play a recording back as a new session and compare the contacts with the recorded ones.
+    Replay(replay::ReplayArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -36,6 +43,8 @@ impl Cli {
         let result = match self.command {
             Command::Serve(a) => serve::run(a),
             Command::Status(a) => status::run(a),
+            Command::Record(a) => record::run(a),
+            Command::Replay(a) => replay::run(a),
             Command::Bench(b) => b.run(),
         };
         match result {
