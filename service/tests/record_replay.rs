@@ -78,6 +78,7 @@ fn a_recorded_run_replays_bit_for_bit() {
         // The session ended: the recorder finishes the file and exits by itself.
         assert!(recorder.wait_exit(Duration::from_secs(10)).is_some_and(|s| s.success()), "the recorder did not end with the session");
         let summary = recorder.line_starting("lumen record: session ended", WAIT).expect("a summary line");
+        println!("{summary}");
         assert_eq!(count_before(&summary, "frames"), Some(FRAMES), "{summary}");
         assert!(summary.contains("missed 0 frames and 0 replies"), "{summary}");
         sent
@@ -130,6 +131,7 @@ fn a_recorded_run_replays_bit_for_bit() {
     let out = replay(&prefix, &path, &["--speed", "max", "--check"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    println!("{text}"); // the figures, with --nocapture
     assert_eq!(count_before(&text, "frames"), Some(FRAMES), "{text}");
     assert_eq!(count_before(&text, "matched"), Some(FRAMES), "{text}");
     assert_eq!(count_before(&text, "differed"), Some(0), "{text}");
