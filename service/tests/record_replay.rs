@@ -4,7 +4,7 @@
 //! files are refused with a clear error.
 
 use lumen_client::{Client, LocalOptions};
-use lumen_e2e::{shm_files, unique_prefix, ChildProcess, Daemon, TestScene};
+use lumen_e2e::{free_port, shm_files, unique_prefix, ChildProcess, Daemon, TestScene};
 use lumen_proto::wire::{self, ContactsHeader, FrameHeader};
 use lumen_proto::Contact;
 use lumen_service::recording::{self, Missed, Recording, RecordingError, Writer};
@@ -65,7 +65,7 @@ fn count_before(text: &str, label: &str) -> Option<u64> {
 fn a_recorded_run_replays_bit_for_bit() {
     const FRAMES: u64 = 30;
     let prefix = unique_prefix("rec");
-    let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let daemon = Daemon::start(Path::new(LUMEN), &prefix, Some(free_port()), &[]);
     let scene = scene();
     let path = temp(&prefix, "run.mcap");
     let sent = {
@@ -135,6 +135,13 @@ fn a_recorded_run_replays_bit_for_bit() {
     assert_eq!(count_before(&text, "frames"), Some(FRAMES), "{text}");
     assert_eq!(count_before(&text, "matched"), Some(FRAMES), "{text}");
     assert_eq!(count_before(&text, "differed"), Some(0), "{text}");
+
+    // The same over zenoh (the transport is a flag; the contacts do not depend on it).
+    let out = replay(&prefix, &path, &["--speed", "max", "--check", "--zenoh", &daemon.endpoint()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    println!("{text}");
+    assert_eq!(count_before(&text, "matched"), Some(FRAMES), "{text}");
 
     // A recording whose one reply was changed by one bit fails --check, naming that frame.
     let tampered = temp(&prefix, "tampered.mcap");
