@@ -95,7 +95,9 @@ pub fn block_termination_signals() {
     }
 }
 
-fn wait_signal(timeout: std::time::Duration) -> Option<i32> {
+/// Waits up to `timeout` (zero: just looks) for SIGINT or SIGTERM, blocked beforehand with
+/// [`block_termination_signals`]; returns the signal taken, if any.
+pub fn wait_signal(timeout: std::time::Duration) -> Option<i32> {
     // SAFETY: as above; sigtimedwait only reads the set and the timeout.
     unsafe {
         let mut set: libc::sigset_t = std::mem::zeroed();

@@ -7,6 +7,7 @@
 //! - [`engine`]: one session's frame processing (check, detect, reply).
 //! - [`stats`]: per-session figures for `lumen status`.
 //! - [`bench`]: `lumen bench ipc`.
+//! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`).
 //! - [`cli`]: the subcommands, one module each.
 
 pub mod bench;
@@ -16,6 +17,7 @@ pub mod control;
 pub mod daemon;
 pub mod engine;
 pub mod local;
+pub mod recording;
 pub mod registry;
 pub mod remote;
 pub mod stats;

@@ -2,8 +2,11 @@
 
 pub mod bench;
 pub mod import;
+pub mod record;
+pub mod replay;
 pub mod serve;
 pub mod status;
+pub mod transport;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -27,6 +30,10 @@ pub enum Command {
     Status(status::StatusArgs),
     /// Build a tube model from a triangle surface and its midline (ray casts per ring).
     Import(import::ImportArgs),
+    /// Record a session's frames and contacts to an MCAP file until it ends or Ctrl-C.
+    Record(record::RecordArgs),
+    /// Play a recording back as a new session and compare the contacts with the recorded ones.
+    Replay(replay::ReplayArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -40,6 +47,8 @@ impl Cli {
             Command::Serve(a) => serve::run(a),
             Command::Status(a) => status::run(a),
             Command::Import(a) => import::run(a),
+            Command::Record(a) => record::run(a),
+            Command::Replay(a) => replay::run(a),
             Command::Bench(b) => b.run(),
         };
         match result {
