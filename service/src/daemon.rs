@@ -95,7 +95,9 @@ pub fn block_termination_signals() {
     }
 }
 
-fn wait_signal(timeout: std::time::Duration) -> Option<i32> {
+/// Takes a pending SIGINT / SIGTERM (blocked by [`block_termination_signals`]), waiting up to
+/// `timeout` for one (zero: just look).
+pub fn wait_signal(timeout: std::time::Duration) -> Option<i32> {
     // SAFETY: as above; sigtimedwait only reads the set and the timeout.
     unsafe {
         let mut set: libc::sigset_t = std::mem::zeroed();

@@ -24,6 +24,8 @@
 //! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
 //!   [`ContactSource`] seam where the daemon plugs in.
 //! - [`setup`]: the colons, the scope's starting pose, the scene spec.
+//! - [`daemon`]: contacts from the Lumen daemon ([`daemon::DaemonSource`], what `lumen sim`
+//!   runs on).
 //!
 //! **Time and rate.** A frame is 1 ms of simulated time (the 1 kHz of a haptic loop) in 16
 //! XPBD substeps; the default script ([`Script::colonoscopy`]) is 3 s, 3,000 frames. On the
@@ -42,6 +44,7 @@
 //! ```
 
 pub mod contact;
+pub mod daemon;
 pub mod operator;
 pub mod rod;
 pub mod setup;

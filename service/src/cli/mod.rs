@@ -1,7 +1,10 @@
 //! The `lumen` command line: one module per subcommand.
 
 pub mod bench;
+pub mod connect;
+pub mod demo;
 pub mod serve;
+pub mod sim;
 pub mod status;
 
 use clap::{Parser, Subcommand};
@@ -24,6 +27,10 @@ pub enum Command {
     Serve(serve::ServeArgs),
     /// List the daemon's sessions with frame rates, latencies and contact counts.
     Status(status::StatusArgs),
+    /// Run the colonoscopy physics against the daemon, as a lab's own engine would.
+    Sim(sim::SimArgs),
+    /// The whole loop in one command: daemon, physics and recorder, a progress bar, a report.
+    Demo(demo::DemoArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -33,13 +40,16 @@ impl Cli {
     /// Runs the chosen subcommand.
     pub fn run(self) -> ExitCode {
         init_logging(&self.log);
+        let done = |r: CliResult| r.map(|()| ExitCode::SUCCESS);
         let result = match self.command {
-            Command::Serve(a) => serve::run(a),
-            Command::Status(a) => status::run(a),
-            Command::Bench(b) => b.run(),
+            Command::Serve(a) => done(serve::run(a)),
+            Command::Status(a) => done(status::run(a)),
+            Command::Sim(a) => sim::run(a),
+            Command::Demo(a) => demo::run(a),
+            Command::Bench(b) => done(b.run()),
         };
         match result {
-            Ok(()) => ExitCode::SUCCESS,
+            Ok(code) => code,
             Err(e) => {
                 eprintln!("lumen: {e}");
                 ExitCode::FAILURE

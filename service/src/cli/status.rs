@@ -1,27 +1,21 @@
 //! `lumen status`: the daemon's sessions as a table (or JSON).
 
+use super::connect::ConnectArgs;
 use super::CliResult;
 use clap::Args;
-use lumen_client::{Client, LocalOptions, StatusReport};
+use lumen_client::StatusReport;
 
 #[derive(Debug, Args)]
 pub struct StatusArgs {
-    /// Ask over zenoh at this endpoint instead of iceoryx2.
-    #[arg(long = "zenoh", value_name = "ENDPOINT")]
-    pub zenoh: Option<String>,
-    /// iceoryx2 prefix of the daemon (env LUMEN_IOX2_PREFIX).
-    #[arg(long, env = "LUMEN_IOX2_PREFIX")]
-    pub prefix: Option<String>,
+    #[command(flatten)]
+    pub connect: ConnectArgs,
     /// Print the raw JSON report.
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: StatusArgs) -> CliResult {
-    let client = match &args.zenoh {
-        Some(ep) => Client::zenoh(ep)?,
-        None => Client::local_with(LocalOptions { prefix: args.prefix.clone(), name: Some("lumen status".into()) })?,
-    };
+    let client = args.connect.client("lumen status")?;
     let report = client.status()?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
