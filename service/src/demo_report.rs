@@ -171,6 +171,21 @@ const SIZE: (u32, u32) = (900, 480);
 const PHYSICS: RGBColor = RGBColor(0, 114, 178);
 const ROUND_TRIP: RGBColor = RGBColor(213, 94, 0);
 
+/// A log axis of microseconds showing every positive value of `v` (never empty).
+fn log_range(v: impl Iterator<Item = f64>) -> LogCoord<f64> {
+    let (lo, hi) = v.filter(|x| x.is_finite() && *x > 0.0).fold((f64::MAX, 0.0f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+    let (lo, hi) = if hi > 0.0 { (lo * 0.8, hi * 1.25) } else { (1.0, 10.0) };
+    (lo..hi).log_scale().into()
+}
+
+fn us_label(v: &f64) -> String {
+    if *v >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.1}")
+    }
+}
+
 /// Upper end of a y axis showing `v` (a little headroom; never empty).
 fn top(v: impl Iterator<Item = f64>) -> f64 {
     let m = v.filter(|x| x.is_finite()).fold(0.0, f64::max);
@@ -191,15 +206,15 @@ pub fn time_per_frame(rows: &[FrameRow], title: &str) -> Result<String, String> 
     {
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(pe)?;
-        let y = top(rows.iter().flat_map(|r| [r.physics_us, r.rtt_us]));
+        let y = log_range(rows.iter().flat_map(|r| [r.physics_us, r.rtt_us]));
         let mut chart = ChartBuilder::on(&root)
             .caption(format!("Time per frame ({title})"), ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(frames_axis(rows), 0.0..y)
+            .build_cartesian_2d(frames_axis(rows), y)
             .map_err(pe)?;
-        chart.configure_mesh().x_desc("frame").y_desc("us").draw().map_err(pe)?;
+        chart.configure_mesh().x_desc("frame").y_desc("us (log)").y_label_formatter(&us_label).draw().map_err(pe)?;
         chart.draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.physics_us)), &PHYSICS)).map_err(pe)?.label("physics").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PHYSICS));
         chart.draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.rtt_us)), &ROUND_TRIP)).map_err(pe)?.label("round trip to the daemon").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], ROUND_TRIP));
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(pe)?;
@@ -222,7 +237,7 @@ pub fn contacts_per_frame(rows: &[FrameRow], title: &str) -> Result<String, Stri
             .y_label_area_size(60)
             .build_cartesian_2d(frames_axis(rows), 0.0..y)
             .map_err(pe)?;
-        chart.configure_mesh().x_desc("frame").y_desc("contacts").draw().map_err(pe)?;
+        chart.configure_mesh().x_desc("frame").y_desc("contacts").y_label_formatter(&|v| format!("{v:.0}")).draw().map_err(pe)?;
         chart.draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.contacts as f64)), &PHYSICS)).map_err(pe)?;
         root.present().map_err(pe)?;
     }
@@ -236,15 +251,15 @@ pub fn time_vs_contacts(rows: &[FrameRow], title: &str) -> Result<String, String
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(pe)?;
         let x = top(rows.iter().map(|r| r.contacts as f64));
-        let y = top(rows.iter().flat_map(|r| [r.physics_us, r.rtt_us]));
+        let y = log_range(rows.iter().flat_map(|r| [r.physics_us, r.rtt_us]));
         let mut chart = ChartBuilder::on(&root)
             .caption(format!("Time against contacts ({title})"), ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..x, 0.0..y)
+            .build_cartesian_2d(0.0..x, y)
             .map_err(pe)?;
-        chart.configure_mesh().x_desc("contacts in the frame").y_desc("us").draw().map_err(pe)?;
+        chart.configure_mesh().x_desc("contacts in the frame").y_desc("us (log)").x_label_formatter(&|v| format!("{v:.0}")).y_label_formatter(&us_label).draw().map_err(pe)?;
         let ok = || rows.iter().filter(|r| !r.nan);
         chart.draw_series(ok().map(|r| Circle::new((r.contacts as f64, r.physics_us), 2, PHYSICS.filled()))).map_err(pe)?.label("physics").legend(|(x, y)| Circle::new((x + 8, y), 3, PHYSICS.filled()));
         chart.draw_series(ok().map(|r| Circle::new((r.contacts as f64, r.rtt_us), 2, ROUND_TRIP.filled()))).map_err(pe)?.label("round trip to the daemon").legend(|(x, y)| Circle::new((x + 8, y), 3, ROUND_TRIP.filled()));
