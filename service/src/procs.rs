@@ -8,6 +8,17 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
+/// What [`Proc::line`] saw.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Next {
+    /// A line of stdout.
+    Line(String),
+    /// Nothing within the timeout.
+    Waiting,
+    /// stdout is closed and every line has been read.
+    Closed,
+}
+
 /// A running child with its stdout lines.
 pub struct Proc {
     /// What it is, for messages ("daemon", "sim", "recorder").
@@ -51,13 +62,12 @@ impl Proc {
         self.child.id()
     }
 
-    /// The next stdout line within `timeout`: `Ok(None)` if none came in time, `Err(())` once
-    /// stdout is closed and every line has been read.
-    pub fn line(&self, timeout: Duration) -> Result<Option<String>, ()> {
+    /// The next stdout line, waiting up to `timeout`.
+    pub fn line(&self, timeout: Duration) -> Next {
         match self.lines.recv_timeout(timeout) {
-            Ok(l) => Ok(Some(l)),
-            Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(()),
+            Ok(l) => Next::Line(l),
+            Err(RecvTimeoutError::Timeout) => Next::Waiting,
+            Err(RecvTimeoutError::Disconnected) => Next::Closed,
         }
     }
 

@@ -15,7 +15,7 @@ use super::sim::SceneArg;
 use crate::daemon::{block_termination_signals, wait_signal};
 use crate::demo_report::{self, Summary};
 use crate::figures::{FrameRow, RunFigures, SimLine};
-use crate::procs::Proc;
+use crate::procs::{Next, Proc};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -154,9 +154,9 @@ impl Run<'_> {
             }
             let p = &mut self.procs[i];
             match p.line(Duration::from_millis(50)) {
-                Ok(Some(l)) if l.starts_with(start) => return Ok(l),
-                Ok(_) => {}
-                Err(()) => {
+                Next::Line(l) if l.starts_with(start) => return Ok(l),
+                Next::Line(_) | Next::Waiting => {}
+                Next::Closed => {
                     let status = p.wait(Duration::from_secs(5)).map_or("killed".into(), |s| s.to_string());
                     return Err(Stop::Failed(format!("the {} ended ({status}) before saying {start:?}; its messages are above", p.name)));
                 }
@@ -178,7 +178,7 @@ impl Run<'_> {
                 return Err(Stop::Signal(sig));
             }
             match self.procs[1].line(Duration::from_millis(50)) {
-                Ok(Some(l)) => match serde_json::from_str::<SimLine>(&l) {
+                Next::Line(l) => match serde_json::from_str::<SimLine>(&l) {
                     Ok(SimLine::Progress(f)) => {
                         bar.set_position(f.frames);
                         bar.set_message(progress_message(&f));
@@ -186,8 +186,8 @@ impl Run<'_> {
                     Ok(s @ SimLine::Summary { .. }) => last = Some(s),
                     Err(_) => eprintln!("lumen sim: {l}"),
                 },
-                Ok(None) => {}
-                Err(()) => break,
+                Next::Waiting => {}
+                Next::Closed => break,
             }
         }
         if let Some(SimLine::Summary { figures, .. }) = &last {
