@@ -95,8 +95,8 @@ pub fn block_termination_signals() {
     }
 }
 
-/// Takes a pending SIGINT / SIGTERM (blocked by [`block_termination_signals`]), waiting up to
-/// `timeout` for one (zero: just look).
+/// Waits up to `timeout` (zero: just looks) for SIGINT or SIGTERM, blocked beforehand with
+/// [`block_termination_signals`]; returns the signal taken, if any.
 pub fn wait_signal(timeout: std::time::Duration) -> Option<i32> {
     // SAFETY: as above; sigtimedwait only reads the set and the timeout.
     unsafe {

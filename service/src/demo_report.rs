@@ -4,7 +4,7 @@
 //!
 //! **Units**: microseconds of wall time, millimetres.
 
-use crate::cli::connect::TransportArg;
+use crate::cli::transport::TransportArg;
 use crate::figures::{FrameRow, RunFigures};
 use plotters::prelude::*;
 use serde::Serialize;

@@ -10,7 +10,7 @@
 //! SIGINT / SIGTERM at any point are forwarded to the children, which are waited for; then
 //! whatever the prefix left in /dev/shm is removed, and the exit status is 130.
 
-use super::connect::TransportArg;
+use super::transport::TransportArg;
 use super::sim::SceneArg;
 use crate::daemon::{block_termination_signals, wait_signal};
 use crate::demo_report::{self, Summary};

@@ -1,11 +1,11 @@
 //! The `lumen` command line: one module per subcommand.
 
 pub mod bench;
-pub mod connect;
 pub mod demo;
 pub mod serve;
 pub mod sim;
 pub mod status;
+pub mod transport;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -10,7 +10,7 @@
 //! SIGINT / SIGTERM end the run after the current frame: the summary is printed, the session
 //! closed, and the exit status is 130.
 
-use super::connect::ConnectArgs;
+use super::transport::TransportArgs;
 use crate::daemon::{block_termination_signals, wait_signal};
 use crate::figures::{FrameRow, SimLine, Tally};
 use clap::{Args, ValueEnum};
@@ -54,7 +54,7 @@ pub struct SimArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     #[command(flatten)]
-    pub connect: ConnectArgs,
+    pub transport: TransportArgs,
     /// Write each frame's figures here (JSON lines).
     #[arg(long, value_name = "FILE")]
     pub figures: Option<PathBuf>,
@@ -87,7 +87,7 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     eprintln!("lumen sim: {} colon, {} rings x {} spokes, built in {:.2?}", args.scene.name(), colon.rings(), colon.spokes, t0.elapsed());
     let config = SimConfig::default();
     let spec = setup::scene_spec(&colon, &config.rod, &config.sim);
-    let client = args.connect.client("lumen sim")?;
+    let client = args.transport.client("lumen sim")?;
     let session = client.open_session(&spec)?;
     let mut out = std::io::stdout().lock();
     writeln!(out, "session {}", session.id())?;
@@ -95,7 +95,7 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     let mut source = DaemonSource::new(session);
     source.timeout = Duration::from_secs_f64(args.reply_timeout);
     let mut world = World::new(&colon, config, source)?;
-    eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.frames, args.connect.transport());
+    eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.frames, args.transport.transport());
     let mut figures = match &args.figures {
         Some(p) => Some(BufWriter::new(std::fs::File::create(p).map_err(|e| format!("--figures {}: {e}", p.display()))?)),
         None => None,

@@ -1,21 +1,21 @@
 //! `lumen status`: the daemon's sessions as a table (or JSON).
 
-use super::connect::ConnectArgs;
 use super::CliResult;
+use super::transport::TransportArgs;
 use clap::Args;
 use lumen_client::StatusReport;
 
 #[derive(Debug, Args)]
 pub struct StatusArgs {
     #[command(flatten)]
-    pub connect: ConnectArgs,
+    pub transport: TransportArgs,
     /// Print the raw JSON report.
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: StatusArgs) -> CliResult {
-    let client = args.connect.client("lumen status")?;
+    let client = args.transport.client("lumen status")?;
     let report = client.status()?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);

@@ -1,5 +1,6 @@
-//! How a client subcommand reaches the daemon: the transport flags every client subcommand
-//! shares (`--transport`, `--prefix`, `--zenoh`) and the [`Client`] they make.
+//! How a client subcommand reaches the daemon: iceoryx2 on this machine (`--prefix`), or zenoh
+//! (`--zenoh ENDPOINT`, or `--transport zenoh` for the default endpoint). Shared by every client
+//! subcommand (`lumen status`, `lumen sim`, ...).
 
 use clap::{Args, ValueEnum};
 use lumen_client::{Client, LocalOptions, Transport};
@@ -28,10 +29,10 @@ impl From<TransportArg> for Transport {
 
 /// The daemon to talk to.
 #[derive(Debug, Clone, Args)]
-pub struct ConnectArgs {
+pub struct TransportArgs {
     /// Transport (default: zenoh if --zenoh is given, else iceoryx2).
-    #[arg(long, value_enum)]
-    pub transport: Option<TransportArg>,
+    #[arg(long = "transport", value_enum)]
+    pub kind: Option<TransportArg>,
     /// iceoryx2 prefix of the daemon (env LUMEN_IOX2_PREFIX).
     #[arg(long, env = "LUMEN_IOX2_PREFIX")]
     pub prefix: Option<String>,
@@ -40,10 +41,10 @@ pub struct ConnectArgs {
     pub zenoh: Option<String>,
 }
 
-impl ConnectArgs {
+impl TransportArgs {
     /// The transport these flags choose.
     pub fn transport(&self) -> Transport {
-        match (self.transport, &self.zenoh) {
+        match (self.kind, &self.zenoh) {
             (Some(t), _) => t.into(),
             (None, Some(_)) => Transport::Zenoh,
             (None, None) => Transport::Iceoryx2,
