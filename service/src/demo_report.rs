@@ -46,6 +46,8 @@ pub struct Summary {
     pub wall_s: f64,
     /// Why the simulation stopped early, if it did.
     pub error: Option<String>,
+    /// What the recorder said it wrote into `run.mcap` (`None`: not recorded).
+    pub recording: Option<String>,
     /// Whether the run was sound (no failures).
     pub sound: bool,
     /// Each failed criterion, named with its figure.
@@ -90,6 +92,7 @@ impl Summary {
             wall_s,
             sound: failures.is_empty(),
             error,
+            recording: None,
             failures,
         }
     }
@@ -142,6 +145,9 @@ impl Summary {
         }
         if let Some(e) = &self.error {
             s += &format!("\nThe simulation stopped early: {e}\n");
+        }
+        if let Some(r) = &self.recording {
+            s += &format!("\nRecording (`run.mcap`, `lumen record`; play it back with `lumen replay run.mcap --check`): {r}\n");
         }
         s += "\n";
         for (file, title) in PLOTS {

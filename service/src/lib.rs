@@ -9,6 +9,7 @@
 //! - [`bench`]: `lumen bench ipc`.
 //! - [`figures`]: the per-frame and run figures `lumen sim` writes and `lumen demo` reads.
 //! - [`demo_report`]: `lumen demo`'s summary, report and plots; [`procs`]: its child processes.
+//! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`).
 //! - [`cli`]: the subcommands, one module each.
 
 pub mod bench;
@@ -21,6 +22,7 @@ pub mod engine;
 pub mod figures;
 pub mod local;
 pub mod procs;
+pub mod recording;
 pub mod registry;
 pub mod remote;
 pub mod stats;

@@ -2,7 +2,7 @@
 //! blocks them to take them in its own loop, and a blocked mask survives `exec`), their stdout
 //! read line by line on a channel, stopped with a signal and reaped.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::os::unix::process::CommandExt;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
@@ -29,9 +29,9 @@ pub struct Proc {
 }
 
 impl Proc {
-    /// Spawns `cmd` (stdout piped, stderr inherited, stdin closed).
+    /// Spawns `cmd` (stdout and stdin piped, stderr inherited).
     pub fn spawn(name: &'static str, mut cmd: Command) -> Result<Self, String> {
-        cmd.stdout(Stdio::piped()).stderr(Stdio::inherit()).stdin(Stdio::null());
+        cmd.stdout(Stdio::piped()).stderr(Stdio::inherit()).stdin(Stdio::piped());
         // SAFETY: between fork and exec only async-signal-safe calls (sigemptyset, sigaddset,
         // pthread_sigmask) on a local set.
         unsafe {
@@ -69,6 +69,12 @@ impl Proc {
             Err(RecvTimeoutError::Timeout) => Next::Waiting,
             Err(RecvTimeoutError::Disconnected) => Next::Closed,
         }
+    }
+
+    /// Writes `line` and a newline to its stdin.
+    pub fn send_line(&mut self, line: &str) -> Result<(), String> {
+        let stdin = self.child.stdin.as_mut().ok_or_else(|| format!("the {}'s stdin is closed", self.name))?;
+        writeln!(stdin, "{line}").and_then(|()| stdin.flush()).map_err(|e| format!("writing to the {}: {e}", self.name))
     }
 
     /// The exit status, if it has exited.

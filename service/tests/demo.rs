@@ -70,7 +70,11 @@ fn headless_demo_is_sound_and_writes_its_report() {
     // side of the bends), so contacts come in the first 300 frames.
     assert!(num("contacts_max") > 0.0, "{summary}");
     assert_eq!(summary["sound"], Value::Bool(true));
-    for f in ["report.md", "time_per_frame.svg", "contacts_per_frame.svg", "time_vs_contacts.svg"] {
+    // The recorder attached before the first frame (the sim holds it) and finished its file
+    // when the session ended. (At full speed it may miss frames: it sees the newest only.)
+    let recording = summary["recording"].as_str().unwrap_or_else(|| panic!("no recording in {summary}"));
+    assert!(recording.starts_with("session ended;") && recording.contains(" replies"), "{recording}");
+    for f in ["report.md", "time_per_frame.svg", "contacts_per_frame.svg", "time_vs_contacts.svg", "run.mcap"] {
         non_empty(&out.0.join(f));
     }
     let frames = std::fs::read_to_string(out.0.join("frames.jsonl")).expect("frames.jsonl");
@@ -91,7 +95,8 @@ fn sigint_leaves_no_process_and_no_shared_memory() {
     // The daemon, the sim (and the recorder) are running and have shared memory open.
     std::thread::sleep(Duration::from_millis(500));
     assert!(!shm_files(&prefix).is_empty(), "the run uses no shared memory of its prefix?");
-    assert!(processes_with(&prefix).len() >= 2, "{:?}", processes_with(&prefix));
+    // The demo, the daemon, the sim and the recorder.
+    assert_eq!(processes_with(&prefix).len(), 4, "{:?}", processes_with(&prefix));
     demo.signal(libc::SIGINT);
     let status = demo.wait_exit(Duration::from_secs(60)).expect("the demo exits after SIGINT");
     assert_eq!(status.code(), Some(130), "{status}");

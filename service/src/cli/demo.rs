@@ -1,7 +1,9 @@
 //! `lumen demo`: the whole loop in one command. It starts the daemon (`lumen serve`, on a
 //! fresh iceoryx2 prefix of its own), the physics client (`lumen sim`) and the recorder
-//! (`lumen record`) as separate processes of this same binary, shows the run's progress, and
-//! writes a report: `report.md`, `summary.json`, `frames.jsonl` and SVG plots in `--out`.
+//! (`lumen record`, into `run.mcap`) as separate processes of this same binary, shows the run's
+//! progress, and writes a report: `report.md`, `summary.json`, `frames.jsonl` and SVG plots in
+//! `--out`. The sim holds its first frame until the recorder observes its session, so the
+//! recording starts with the run.
 //!
 //! The run is sound when no scope sample is outside the wall at the end of any frame, the
 //! deepest penetration is at most [`MAX_PENETRATION_MM`] and no frame produced a NaN; the exit
@@ -45,6 +47,10 @@ pub struct DemoArgs {
     /// iceoryx2 prefix of the run (default: lumen_demo_<pid>_, which nothing else uses).
     #[arg(long)]
     pub prefix: Option<String>,
+    /// Do not record the run (a recording holds every frame: about 0.5 MB per frame on the
+    /// full colon).
+    #[arg(long)]
+    pub no_record: bool,
 }
 
 /// Why the demo stopped before its report.
@@ -119,7 +125,7 @@ impl Run<'_> {
         let figures_path = self.args.out.join("frames.jsonl");
         let every = (self.args.frames / 50).clamp(1, 100);
         let mut sim = Command::new(&exe);
-        sim.args(["sim", "--log", "warn", "--scene", self.args.scene.name(), "--prefix", self.prefix]);
+        sim.args(["sim", "--log", "warn", "--hold", "--scene", self.args.scene.name(), "--prefix", self.prefix]);
         sim.arg("--frames").arg(self.args.frames.to_string()).arg("--progress-every").arg(every.to_string()).arg("--figures").arg(&figures_path);
         if let Some(d) = &self.args.data {
             sim.arg("--data").arg(d);
@@ -133,6 +139,17 @@ impl Run<'_> {
         let session = self.expect_line(1, "session ", Duration::from_secs(180))?;
         let session = session.trim_start_matches("session ").trim().to_owned();
         println!("lumen demo: session {session}");
+        if !self.args.no_record {
+            let mut record = Command::new(&exe);
+            record.args(["record", &session, "--log", "warn", "--prefix", self.prefix, "-o"]).arg(self.args.out.join("run.mcap"));
+            if let Some(ep) = &zenoh {
+                record.args(["--zenoh", ep]);
+            }
+            self.procs.push(Proc::spawn("recorder", record)?);
+            self.expect_line(2, "lumen record: recording session", Duration::from_secs(30))?;
+        }
+        // Released: the run starts.
+        self.procs[1].send_line("go")?;
 
         let t0 = Instant::now();
         let (last, sim_status) = self.follow_sim()?;
@@ -199,13 +216,16 @@ impl Run<'_> {
         Ok((last, status))
     }
 
-    /// Stops the recorder and the daemon, writes the report, judges the run.
+    /// Waits for the recorder to finish (it ends with the session), stops the daemon, writes
+    /// the report, judges the run.
     fn finish(&mut self, figures: &RunFigures, error: Option<String>, figures_path: &Path, wall_s: f64) -> Result<ExitCode, Stop> {
+        let recording = self.finish_recorder();
         for p in self.procs.iter_mut().rev() {
             p.stop(libc::SIGTERM, Duration::from_secs(10));
         }
         let rows = read_rows(figures_path)?;
-        let summary = Summary::new(self.args.scene.name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
+        let mut summary = Summary::new(self.args.scene.name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
+        summary.recording = recording;
         demo_report::write(&self.args.out, &summary, &rows).map_err(|e| format!("writing the report in {}: {e}", self.args.out.display()))?;
         println!("{}", summary.text());
         println!("lumen demo: report in {}", self.args.out.join("report.md").display());
@@ -214,6 +234,37 @@ impl Run<'_> {
         } else {
             eprintln!("lumen demo: the run was not sound: {}", summary.failures.join("; "));
             Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+impl Run<'_> {
+    /// The recorder's last line once it has finished its file (it ends when the session does;
+    /// SIGINT after 10 s); `None` without a recorder.
+    fn finish_recorder(&mut self) -> Option<String> {
+        let rec = self.procs.get_mut(2)?;
+        let start = Instant::now();
+        let (mut last, mut signalled) = (None, false);
+        loop {
+            match rec.line(Duration::from_millis(50)) {
+                Next::Line(l) => last = Some(l),
+                Next::Closed => break,
+                Next::Waiting => {
+                    let t = start.elapsed();
+                    if t > Duration::from_secs(10) && !signalled {
+                        rec.signal(libc::SIGINT);
+                        signalled = true;
+                    }
+                    if t > Duration::from_secs(20) {
+                        break;
+                    }
+                }
+            }
+        }
+        let status = rec.wait(Duration::from_secs(10));
+        match (last, status) {
+            (Some(l), Some(s)) if s.success() => Some(l.trim_start_matches("lumen record: ").to_owned()),
+            (l, s) => Some(format!("the recorder failed ({}){}", s.map_or("killed".into(), |s| s.to_string()), l.map_or(String::new(), |l| format!(": {l}")))),
         }
     }
 }

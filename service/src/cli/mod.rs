@@ -2,6 +2,8 @@
 
 pub mod bench;
 pub mod demo;
+pub mod record;
+pub mod replay;
 pub mod serve;
 pub mod sim;
 pub mod status;
@@ -31,6 +33,10 @@ pub enum Command {
     Sim(sim::SimArgs),
     /// The whole loop in one command: daemon, physics and recorder, a progress bar, a report.
     Demo(demo::DemoArgs),
+    /// Record a session's frames and contacts to an MCAP file until it ends or Ctrl-C.
+    Record(record::RecordArgs),
+    /// Play a recording back as a new session and compare the contacts with the recorded ones.
+    Replay(replay::ReplayArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -46,6 +52,8 @@ impl Cli {
             Command::Status(a) => done(status::run(a)),
             Command::Sim(a) => sim::run(a),
             Command::Demo(a) => demo::run(a),
+            Command::Record(a) => done(record::run(a)),
+            Command::Replay(a) => done(replay::run(a)),
             Command::Bench(b) => done(b.run()),
         };
         match result {

@@ -61,6 +61,10 @@ pub struct SimArgs {
     /// A progress line on stdout every this many frames (0: none).
     #[arg(long, default_value_t = 100)]
     pub progress_every: u64,
+    /// After the session line, wait for a line (or the end) on stdin before the first
+    /// detection, so that a recorder can attach before anything is sent.
+    #[arg(long)]
+    pub hold: bool,
     /// Seconds to wait for each reply of the daemon.
     #[arg(long, default_value_t = 5.0)]
     pub reply_timeout: f64,
@@ -92,6 +96,10 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     let mut out = std::io::stdout().lock();
     writeln!(out, "session {}", session.id())?;
     out.flush()?;
+    if args.hold && !wait_for_go()? {
+        eprintln!("lumen sim: interrupted before the first frame");
+        return Ok(std::process::ExitCode::from(INTERRUPTED));
+    }
     let mut source = DaemonSource::new(session);
     source.timeout = Duration::from_secs_f64(args.reply_timeout);
     let mut world = World::new(&colon, config, source)?;
@@ -161,5 +169,24 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
             Ok(std::process::ExitCode::from(INTERRUPTED))
         }
         Some(e) => Err(e.into()),
+    }
+}
+
+/// Waits for a line or the end of stdin, watching for SIGINT / SIGTERM; false if one came.
+fn wait_for_go() -> Result<bool, Box<dyn std::error::Error>> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::stdin().read_line(&mut line);
+        let _ = tx.send(());
+    });
+    loop {
+        if wait_signal(Duration::ZERO).is_some() {
+            return Ok(false);
+        }
+        match rx.recv_timeout(Duration::from_millis(20)) {
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            _ => return Ok(true),
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! How a client subcommand reaches the daemon: iceoryx2 on this machine (`--prefix`), or zenoh
 //! (`--zenoh ENDPOINT`, or `--transport zenoh` for the default endpoint). Shared by every client
-//! subcommand (`lumen status`, `lumen sim`, ...).
+//! subcommand (`lumen status`, `lumen sim`, `lumen record`, `lumen replay`).
 
 use clap::{Args, ValueEnum};
 use lumen_client::{Client, LocalOptions, Transport};

@@ -1,0 +1,384 @@
+//! Recordings of a session in MCAP (the robotics log format: `mcap` tools, Foxglove): the
+//! scene spec, then every frame and reply as the exact bytes they have on the wire.
+//!
+//! - [`Writer`]: what `lumen record` writes through (one frame / reply at a time).
+//! - [`Recording`]: a recording read back and checked ([`Recording::open`]), its replies by
+//!   frame number, its frames streamed ([`Recording::frames`]).
+//! - [`compare_replies`]: whether a reply equals a recorded one bit for bit, and if not, where.
+//!
+//! Layout (see `service/README.md`, "Recording format"):
+//!
+//! | topic | message encoding | schema | message |
+//! |---|---|---|---|
+//! | `/lumen/spec` | `json` | `jsonschema` | the [`SceneSpec`], once, first |
+//! | `/lumen/frames` | `lumen-repr-c` | `lumen.Frame` (text) | `FrameHeader` (40 bytes) + `floats` x f32 |
+//! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
+//! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
+//!
+//! All little-endian, as in `proto/README.md`. `log_time` is the client's `client_time_ns`
+//! (its own clock, nanoseconds) or, when the client left it 0, the receive time; `publish_time`
+//! is the recorder's receive time (nanoseconds since the Unix epoch). The spec channel's metadata
+//! names the session and transport. The same facts are also MCAP metadata records (`lumen`,
+//! first, and `lumen.summary`, on finishing) for tools that show metadata.
+
+use lumen_proto::wire::{self, ContactsHeader, FrameHeader, CONTACT_BYTES};
+use lumen_proto::{Contact, SceneSpec};
+use mcap::records::{MessageHeader, Metadata};
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{BufReader, BufWriter};
+use std::path::{Path, PathBuf};
+
+/// Topic of the scene spec (JSON, one message).
+pub const SPEC_TOPIC: &str = "/lumen/spec";
+/// Topic of the frames (wire bytes).
+pub const FRAMES_TOPIC: &str = "/lumen/frames";
+/// Topic of the replies (wire bytes).
+pub const CONTACTS_TOPIC: &str = "/lumen/contacts";
+/// Topic of the counts written on finishing (JSON, one message, last).
+pub const SUMMARY_TOPIC: &str = "/lumen/summary";
+/// Message and schema encoding of frames and replies: the `#[repr(C)]` little-endian bytes of
+/// `proto/README.md`.
+pub const WIRE_ENCODING: &str = "lumen-repr-c";
+/// The MCAP header's profile.
+pub const PROFILE: &str = "lumen";
+/// Name of the metadata record holding the spec and session, written first.
+pub const METADATA: &str = "lumen";
+/// Name of the metadata record holding the counts, written on finishing.
+pub const SUMMARY_METADATA: &str = "lumen.summary";
+
+/// Schema text of [`FRAMES_TOPIC`]: the byte layout, for people and tools that list schemas.
+pub const FRAME_SCHEMA: &str = "\
+lumen.Frame v1, little-endian, the bytes of proto/README.md section 2:
+FrameHeader (40 bytes): 0 u32 magic 'LMNF' | 4 u16 version | 6 u16 flags | 8 u64 session |
+16 u64 frame | 24 u64 client_time_ns | 32 u32 floats | 36 u32 bodies
+then floats x f32: every body's state in spec order (tube: per ring its control point x y z
+then its radial vectors x y z; rod: x y z per point), millimetres.
+";
+
+/// Schema text of [`CONTACTS_TOPIC`].
+pub const CONTACTS_SCHEMA: &str = "\
+lumen.Contacts v1, little-endian, the bytes of proto/README.md section 3:
+ContactsHeader (256 bytes): 0 u32 magic 'LMNC' | 4 u16 version | 6 u16 status | 8 u64 session |
+16 u64 frame | 24 u64 client_time_ns | 32 u32 detect_ns | 36 u32 count | 40 u32 skipped |
+44 u32 error_body | 48 u32 error_index | 52 u32 error_spoke | 56 u16 message_len | 58 u16 flags |
+60 u8[196] message
+then count x Contact (88 bytes): 0 u16 pair | 2 u8 kind | 3 u8 flags | 4 u16 body_a | 6 u16 body_b |
+8 u32 sample | 12 u32 segment_a | 16 f32 param_a | 20 u32 index_b | 24 u32 spoke_b | 28 f32 param_b |
+32 f32[4] weights_b | 48 f32[3] point_a | 60 f32[3] point_b | 72 f32[3] normal | 84 f32 depth
+";
+
+const SUMMARY_JSON_SCHEMA: &str = r#"{"title":"lumen.Summary","description":"Counts of a finished recording (decimal strings): frames, replies, contacts, missed_frames, missed_replies","type":"object"}"#;
+const SPEC_JSON_SCHEMA: &str = r#"{"title":"lumen.SceneSpec","description":"The scene spec of proto/README.md section 1 (bodies, pairs, precision, alpha, margin)","type":"object"}"#;
+
+/// What went wrong with a recording; every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordingError {
+    /// The file could not be opened, created or written.
+    #[error("{}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    /// The MCAP writer failed (disk full, ...).
+    #[error("{}: writing MCAP: {source}", path.display())]
+    Write { path: PathBuf, source: mcap::McapError },
+    /// Not an MCAP file at all (wrong magic, empty, garbage).
+    #[error("{} is not a readable MCAP file: {source}", path.display())]
+    NotMcap { path: PathBuf, source: mcap::McapError },
+    /// An MCAP file that ends or breaks after `messages` good messages (a recorder killed with
+    /// SIGKILL, a partial copy).
+    #[error("{} is cut short or damaged after {messages} messages ({source}); was the recorder killed before it finished the file?", path.display())]
+    Truncated { path: PathBuf, messages: u64, source: mcap::McapError },
+    /// A valid MCAP file that is not a Lumen recording, or holds a message that is not what its
+    /// topic says.
+    #[error("{} is not a usable Lumen recording: {what}", path.display())]
+    NotLumen { path: PathBuf, what: String },
+}
+
+/// Counts of a finished recording.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Written {
+    /// Frames written.
+    pub frames: u64,
+    /// Replies written.
+    pub replies: u64,
+    /// Contact records in all replies.
+    pub contacts: u64,
+    /// File size in bytes.
+    pub bytes: u64,
+}
+
+/// What a recorder did not see, stored in the file's summary metadata.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Missed {
+    /// Frame numbers the recorder never saw between two it did (it fell behind).
+    pub frames: u64,
+    /// Replies it never saw, beyond the frames the daemon itself skipped.
+    pub replies: u64,
+}
+
+/// Writes a recording: [`Writer::create`], then [`Writer::frame`] / [`Writer::contacts`] as
+/// they come, then [`Writer::finish`] (without it the file has no summary and readers call it
+/// cut short).
+pub struct Writer {
+    path: PathBuf,
+    mcap: mcap::Writer<BufWriter<File>>,
+    frames_channel: u16,
+    contacts_channel: u16,
+    summary_channel: u16,
+    last_log_time: u64,
+    sequence: u32,
+    written: Written,
+    buf: Vec<u8>,
+}
+
+impl Writer {
+    /// Creates `path` (replacing it) and writes the header, schemas, channels, the `lumen`
+    /// metadata and the spec message. `transport` is only informative (`iceoryx2`, `zenoh`).
+    pub fn create(path: &Path, spec: &SceneSpec, session: u64, transport: &str) -> Result<Self, RecordingError> {
+        let io = |source| RecordingError::Io { path: path.to_owned(), source };
+        let file = File::create(path).map_err(io)?;
+        let wr = |source| RecordingError::Write { path: path.to_owned(), source };
+        // No compression: the build stays free of C libraries, and every MCAP tool reads it.
+        let options = mcap::WriteOptions::new().profile(PROFILE).library(concat!("lumen/", env!("CARGO_PKG_VERSION"))).compression(None);
+        let mut mcap = options.create(BufWriter::new(file)).map_err(wr)?;
+        let spec_json = serde_json::to_string(spec).expect("a SceneSpec always serialises");
+        let mut meta = BTreeMap::new();
+        meta.insert("spec".to_owned(), spec_json.clone());
+        meta.insert("session".to_owned(), session.to_string());
+        meta.insert("transport".to_owned(), transport.to_owned());
+        meta.insert("protocol_version".to_owned(), wire::PROTOCOL_VERSION.to_string());
+        meta.insert("lumen_version".to_owned(), env!("CARGO_PKG_VERSION").to_owned());
+        mcap.write_metadata(&Metadata { name: METADATA.to_owned(), metadata: meta }).map_err(wr)?;
+        let none = BTreeMap::new();
+        let spec_schema = mcap.add_schema("lumen.SceneSpec", "jsonschema", SPEC_JSON_SCHEMA.as_bytes()).map_err(wr)?;
+        let mut channel_meta = BTreeMap::new();
+        channel_meta.insert("session".to_owned(), session.to_string());
+        channel_meta.insert("transport".to_owned(), transport.to_owned());
+        let spec_channel = mcap.add_channel(spec_schema, SPEC_TOPIC, "json", &channel_meta).map_err(wr)?;
+        let summary_schema = mcap.add_schema("lumen.Summary", "jsonschema", SUMMARY_JSON_SCHEMA.as_bytes()).map_err(wr)?;
+        let summary_channel = mcap.add_channel(summary_schema, SUMMARY_TOPIC, "json", &none).map_err(wr)?;
+        let frame_schema = mcap.add_schema("lumen.Frame", WIRE_ENCODING, FRAME_SCHEMA.as_bytes()).map_err(wr)?;
+        let frames_channel = mcap.add_channel(frame_schema, FRAMES_TOPIC, WIRE_ENCODING, &none).map_err(wr)?;
+        let contacts_schema = mcap.add_schema("lumen.Contacts", WIRE_ENCODING, CONTACTS_SCHEMA.as_bytes()).map_err(wr)?;
+        let contacts_channel = mcap.add_channel(contacts_schema, CONTACTS_TOPIC, WIRE_ENCODING, &none).map_err(wr)?;
+        // The spec message is stamped 0: it holds before every frame, whatever the client's clock.
+        let now = wall_ns();
+        mcap.write_to_known_channel(&MessageHeader { channel_id: spec_channel, sequence: 0, log_time: 0, publish_time: now }, spec_json.as_bytes()).map_err(wr)?;
+        Ok(Self { path: path.to_owned(), mcap, frames_channel, contacts_channel, summary_channel, last_log_time: 0, sequence: 1, written: Written::default(), buf: Vec::new() })
+    }
+
+    /// Appends one frame as it was on the wire; `receive_ns` is when the recorder got it
+    /// (nanoseconds since the Unix epoch, see [`wall_ns`]).
+    pub fn frame(&mut self, header: &FrameHeader, state: &[f32], receive_ns: u64) -> Result<(), RecordingError> {
+        self.buf.clear();
+        wire::encode_frame(header, state, &mut self.buf);
+        self.put(self.frames_channel, header.client_time_ns, receive_ns)?;
+        self.written.frames += 1;
+        Ok(())
+    }
+
+    /// Appends one reply as it was on the wire.
+    pub fn contacts(&mut self, header: &ContactsHeader, contacts: &[Contact], receive_ns: u64) -> Result<(), RecordingError> {
+        self.buf.clear();
+        let mut h = *header;
+        wire::encode_contacts(&mut h, contacts, &mut self.buf);
+        self.put(self.contacts_channel, header.client_time_ns, receive_ns)?;
+        self.written.replies += 1;
+        self.written.contacts += contacts.len() as u64;
+        Ok(())
+    }
+
+    fn put(&mut self, channel_id: u16, client_ns: u64, receive_ns: u64) -> Result<(), RecordingError> {
+        let log_time = if client_ns != 0 { client_ns } else { receive_ns };
+        self.last_log_time = self.last_log_time.max(log_time);
+        let header = MessageHeader { channel_id, sequence: self.sequence, log_time, publish_time: receive_ns };
+        self.sequence = self.sequence.wrapping_add(1);
+        self.mcap.write_to_known_channel(&header, &self.buf).map_err(|source| RecordingError::Write { path: self.path.clone(), source })
+    }
+
+    /// What has been written so far (bytes: 0 until finished).
+    pub fn written(&self) -> Written {
+        self.written
+    }
+
+    /// Writes the `lumen.summary` metadata (counts, `missed`), the MCAP summary and footer, and
+    /// flushes the file to disk.
+    pub fn finish(mut self, missed: Missed) -> Result<Written, RecordingError> {
+        let wr = |path: &Path, source| RecordingError::Write { path: path.to_owned(), source };
+        let mut meta = BTreeMap::new();
+        meta.insert("frames".to_owned(), self.written.frames.to_string());
+        meta.insert("replies".to_owned(), self.written.replies.to_string());
+        meta.insert("contacts".to_owned(), self.written.contacts.to_string());
+        meta.insert("missed_frames".to_owned(), missed.frames.to_string());
+        meta.insert("missed_replies".to_owned(), missed.replies.to_string());
+        let json = serde_json::to_vec(&meta).expect("a map of strings serialises");
+        let header = MessageHeader { channel_id: self.summary_channel, sequence: self.sequence, log_time: self.last_log_time, publish_time: wall_ns() };
+        self.mcap.write_to_known_channel(&header, &json).map_err(|e| wr(&self.path, e))?;
+        self.mcap.write_metadata(&Metadata { name: SUMMARY_METADATA.to_owned(), metadata: meta }).map_err(|e| wr(&self.path, e))?;
+        self.mcap.finish().map_err(|e| wr(&self.path, e))?;
+        let file = self.mcap.into_inner().into_inner().map_err(|e| RecordingError::Io { path: self.path.clone(), source: e.into_error() })?;
+        let io = |source| RecordingError::Io { path: self.path.clone(), source };
+        file.sync_all().map_err(io)?;
+        self.written.bytes = file.metadata().map_err(io)?.len();
+        Ok(self.written)
+    }
+}
+
+/// Nanoseconds since the Unix epoch (the recorder's `publish_time`).
+pub fn wall_ns() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+}
+
+/// One recorded frame.
+#[derive(Debug, Clone)]
+pub struct RecordedFrame {
+    pub header: FrameHeader,
+    /// The floats as sent, in the spec's layout (millimetres).
+    pub state: Vec<f32>,
+    /// MCAP `log_time`: the client's timestamp, nanoseconds.
+    pub log_time_ns: u64,
+}
+
+/// One recorded reply.
+#[derive(Debug, Clone)]
+pub struct RecordedReply {
+    pub header: ContactsHeader,
+    pub contacts: Vec<Contact>,
+}
+
+/// A recording read back: spec, session, replies by frame number; frames are streamed by
+/// [`Recording::frames`] (they can be large).
+#[derive(Debug)]
+pub struct Recording {
+    pub path: PathBuf,
+    /// The scene of the recorded session.
+    pub spec: SceneSpec,
+    /// The recorded session's id.
+    pub session: u64,
+    /// Number of frames in the file.
+    pub frames: u64,
+    /// The replies, by the frame they answer (the last one if a number repeats).
+    pub replies: HashMap<u64, RecordedReply>,
+    /// What the recorder reported missing; `None` if the file has no summary message.
+    pub missed: Option<Missed>,
+}
+
+impl Recording {
+    /// Reads `path` through once, checking every message: a file that is not MCAP, is cut short,
+    /// lacks the spec, or holds a frame / reply that does not decode is refused with an error
+    /// naming the problem.
+    pub fn open(path: &Path) -> Result<Self, RecordingError> {
+        let not_lumen = |what: String| RecordingError::NotLumen { path: path.to_owned(), what };
+        let mut spec: Option<SceneSpec> = None;
+        let (mut frames, mut replies) = (0u64, HashMap::new());
+        let (mut session, mut missed) = (0u64, None);
+        let mut decoded = Vec::new();
+        for message in messages(path)? {
+            let m = message?;
+            match m.channel.topic.as_str() {
+                SPEC_TOPIC => {
+                    let s = serde_json::from_slice(&m.data).map_err(|e| not_lumen(format!("its {SPEC_TOPIC} message is not a scene spec: {e}")))?;
+                    spec = Some(s);
+                    session = m.channel.metadata.get("session").and_then(|v| v.parse().ok()).unwrap_or(0);
+                }
+                SUMMARY_TOPIC => {
+                    let map: BTreeMap<String, String> = serde_json::from_slice(&m.data).map_err(|e| not_lumen(format!("its {SUMMARY_TOPIC} message is not a map of counts: {e}")))?;
+                    let get = |k: &str| map.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+                    missed = Some(Missed { frames: get("missed_frames"), replies: get("missed_replies") });
+                }
+                FRAMES_TOPIC => {
+                    decode_frame(&m.data).map_err(|e| not_lumen(format!("frame message {} (sequence {}): {e}", frames, m.sequence)))?;
+                    frames += 1;
+                }
+                CONTACTS_TOPIC => {
+                    let h = wire::decode_contacts(&m.data, &mut decoded).map_err(|e| not_lumen(format!("reply message (sequence {}): {e}", m.sequence)))?;
+                    replies.insert(h.frame, RecordedReply { header: h, contacts: std::mem::take(&mut decoded) });
+                }
+                _ => {}
+            }
+        }
+        let spec = spec.ok_or_else(|| not_lumen(format!("no {SPEC_TOPIC} message (was it written by `lumen record`?)")))?;
+        Ok(Self { path: path.to_owned(), spec, session, frames, replies, missed })
+    }
+
+    /// The frames in file order, read one at a time.
+    pub fn frames(&self) -> Result<impl Iterator<Item = Result<RecordedFrame, RecordingError>>, RecordingError> {
+        let path = self.path.clone();
+        Ok(messages(&self.path)?.filter_map(move |m| match m {
+            Err(e) => Some(Err(e)),
+            Ok(m) if m.channel.topic == FRAMES_TOPIC => Some(
+                decode_frame(&m.data)
+                    .map(|(header, state)| RecordedFrame { header, state, log_time_ns: m.log_time })
+                    .map_err(|e| RecordingError::NotLumen { path: path.clone(), what: format!("frame message (sequence {}): {e}", m.sequence) }),
+            ),
+            Ok(_) => None,
+        }))
+    }
+}
+
+/// Every message of the file, an error (and nothing more) where reading fails.
+fn messages(path: &Path) -> Result<impl Iterator<Item = Result<mcap::Message<'static>, RecordingError>>, RecordingError> {
+    let file = File::open(path).map_err(|source| RecordingError::Io { path: path.to_owned(), source })?;
+    let path = path.to_owned();
+    let mut count = 0u64;
+    Ok(mcap::io::MessageReader::new(BufReader::new(file)).map(move |m| match m {
+        Ok(m) => {
+            count += 1;
+            Ok(m)
+        }
+        Err(source @ mcap::McapError::BadMagic) if count == 0 => Err(RecordingError::NotMcap { path: path.clone(), source }),
+        Err(source @ (mcap::McapError::UnexpectedEof | mcap::McapError::Parse(_))) if count == 0 && is_short_or_not_mcap(&path) => {
+            Err(RecordingError::NotMcap { path: path.clone(), source })
+        }
+        Err(source) => Err(RecordingError::Truncated { path: path.clone(), messages: count, source }),
+    }))
+}
+
+/// Whether the file does not even start with the MCAP magic.
+fn is_short_or_not_mcap(path: &Path) -> bool {
+    let mut head = [0u8; 8];
+    match File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head)) {
+        Ok(()) => head != mcap::MAGIC,
+        Err(_) => true,
+    }
+}
+
+fn decode_frame(bytes: &[u8]) -> Result<(FrameHeader, Vec<f32>), String> {
+    let header = FrameHeader::read(bytes).map_err(|e| e.to_string())?;
+    let body = &bytes[wire::FRAME_HEADER_BYTES..];
+    if !body.len().is_multiple_of(4) {
+        return Err(format!("payload of {} bytes is not a whole number of floats", body.len()));
+    }
+    Ok((header, body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()))
+}
+
+/// `Ok(())` if a reply equals the recorded one bit for bit in everything the frame determines
+/// (status, error location and message, flags, every contact's bytes), else the first
+/// difference. Session, frame, timestamps, `detect_ns` and `skipped` are not compared: they
+/// belong to the run, not to the frame.
+pub fn compare_replies(got: (&ContactsHeader, &[Contact]), recorded: &RecordedReply) -> Result<(), String> {
+    let (h, contacts) = got;
+    let r = &recorded.header;
+    if h.status != r.status {
+        return Err(format!("status {} ({}), recorded {} ({})", h.status, h.message(), r.status, r.message()));
+    }
+    if (h.error_body, h.error_index, h.error_spoke) != (r.error_body, r.error_index, r.error_spoke) || h.message() != r.message() {
+        return Err(format!("error location or message differs: {:?} vs recorded {:?}", h.message(), r.message()));
+    }
+    if h.flags != r.flags {
+        return Err(format!("flags {:#x}, recorded {:#x}", h.flags, r.flags));
+    }
+    if contacts.len() != recorded.contacts.len() {
+        return Err(format!("{} contacts, recorded {}", contacts.len(), recorded.contacts.len()));
+    }
+    let (mut a, mut b) = (Vec::with_capacity(CONTACT_BYTES), Vec::with_capacity(CONTACT_BYTES));
+    for (i, (x, y)) in contacts.iter().zip(&recorded.contacts).enumerate() {
+        a.clear();
+        b.clear();
+        wire::encode_contact(x, &mut a);
+        wire::encode_contact(y, &mut b);
+        if a != b {
+            return Err(format!("contact {i} differs: depth {} at {:?}, recorded depth {} at {:?}", x.depth, x.point_a, y.depth, y.point_a));
+        }
+    }
+    Ok(())
+}
