@@ -416,3 +416,59 @@ fn poll2(a: &Listener<Svc>, b: &Listener<Svc>, timeout: Duration) -> i32 {
     let mut fds = [a, b].map(|l| libc::pollfd { fd: unsafe { l.file_descriptor().native_handle() }, events: libc::POLLIN, revents: 0 });
     unsafe { libc::poll(fds.as_mut_ptr(), 2, timeout.as_millis().clamp(1, i32::MAX as u128) as i32) }
 }
+
+/// Files in `/dev/shm` of iceoryx2 prefix `prefix`.
+pub fn shm_files(prefix: &str) -> Vec<String> {
+    entries_starting(std::path::Path::new("/dev/shm"), prefix)
+}
+
+fn entries_starting(dir: &std::path::Path, prefix: &str) -> Vec<String> {
+    std::fs::read_dir(dir).map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(prefix)).collect()).unwrap_or_default()
+}
+
+/// Removes everything iceoryx2 prefix `prefix` left behind, once every process that used it
+/// has exited: its files in `/dev/shm` (the per-prefix node counter, which iceoryx2 never
+/// removes itself, and whatever a process killed without cleaning up left there) and its
+/// service and node entries under iceoryx2's root directory. Only for a private prefix (one
+/// run's, one benchmark's): processes still using it would lose their shared memory. Returns
+/// what could not be removed.
+pub fn remove_prefix(prefix: &str) -> Vec<String> {
+    let mut failed = Vec::new();
+    let mut remove = |path: std::path::PathBuf| {
+        let r = if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
+        if let Err(e) = r {
+            if e.kind() != std::io::ErrorKind::NotFound {
+                failed.push(format!("{}: {e}", path.display()));
+            }
+        }
+    };
+    let shm = std::path::Path::new("/dev/shm");
+    for f in shm_files(prefix) {
+        remove(shm.join(f));
+    }
+    if let Ok(cfg) = config(Some(prefix)) {
+        let services = std::path::PathBuf::from(cfg.global.service_dir().to_string());
+        for f in entries_starting(&services, prefix) {
+            remove(services.join(f));
+        }
+        // Node entries are directories named by node id holding files named with the prefix.
+        let nodes = std::path::PathBuf::from(cfg.global.node_dir().to_string());
+        for f in entries_starting(&nodes, prefix) {
+            remove(nodes.join(f));
+        }
+        if let Ok(dirs) = std::fs::read_dir(&nodes) {
+            for d in dirs.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.is_dir()) {
+                let mine = entries_starting(&d, prefix);
+                if mine.is_empty() {
+                    continue;
+                }
+                for f in &mine {
+                    remove(d.join(f));
+                }
+                // The node's directory goes once it is empty (another prefix may share it).
+                let _ = std::fs::remove_dir(&d);
+            }
+        }
+    }
+    failed
+}

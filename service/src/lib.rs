@@ -7,6 +7,8 @@
 //! - [`engine`]: one session's frame processing (check, detect, reply).
 //! - [`stats`]: per-session figures for `lumen status`.
 //! - [`bench`]: `lumen bench ipc`.
+//! - [`figures`]: the per-frame and run figures `lumen sim` writes and `lumen demo` reads.
+//! - [`demo_report`]: `lumen demo`'s summary, report and plots; [`procs`]: its child processes.
 //! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`).
 //! - [`cli`]: the subcommands, one module each.
 
@@ -15,8 +17,11 @@ pub mod cli;
 pub mod config;
 pub mod control;
 pub mod daemon;
+pub mod demo_report;
 pub mod engine;
+pub mod figures;
 pub mod local;
+pub mod procs;
 pub mod recording;
 pub mod registry;
 pub mod remote;

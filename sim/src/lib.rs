@@ -24,12 +24,15 @@
 //! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
 //!   [`ContactSource`] seam where the daemon plugs in.
 //! - [`setup`]: the colons, the scope's starting pose, the scene spec.
+//! - [`daemon`]: contacts from the Lumen daemon ([`daemon::DaemonSource`], what `lumen sim`
+//!   runs on).
 //!
 //! **Time and rate.** A frame is 1 ms of simulated time (the 1 kHz of a haptic loop) in 16
 //! XPBD substeps; the default script ([`Script::colonoscopy`]) is 3 s, 3,000 frames. On the
 //! full generated colon a frame costs about 0.4 ms of physics and 0.3 ms of detection on the
 //! development machine (over 1,000 frames/s; see `tests/physics.rs` and the
-//! `lumen-sim-run` binary).
+//! `lumen-sim-run` binary). `lumen sim` runs it as its own process against the daemon
+//! ([`daemon::DaemonSource`]) and `lumen demo` runs daemon, physics and recorder together.
 //!
 //! ```no_run
 //! use lumen_sim::{setup, SimConfig, World};
@@ -42,6 +45,7 @@
 //! ```
 
 pub mod contact;
+pub mod daemon;
 pub mod operator;
 pub mod rod;
 pub mod setup;

@@ -155,3 +155,21 @@ pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
     spec.margin = sim.margin_mm;
     spec
 }
+
+/// The colons a run can use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Colon {
+    /// [`generated_colon`] (1.5 m) of a seed.
+    Generated { seed: u64 },
+    /// [`gca_colon`], from a directory or its default place.
+    Gca,
+}
+
+/// Builds `colon` (`data`: the GCA files' directory, for [`Colon::Gca`]); the error says what
+/// is missing.
+pub fn colon(colon: Colon, data: Option<&Path>) -> Result<Tube, String> {
+    match colon {
+        Colon::Generated { seed } => Ok(generated_colon(seed, 1500.0)),
+        Colon::Gca => gca_colon(data),
+    }
+}

@@ -226,7 +226,8 @@ impl IpcBench {
         }
         bar.finish_and_clear();
         drop(_daemon); // SIGTERM: it releases its shared memory
-        remove_node_counter(&self.prefix);
+        // The private prefix's node counter (iceoryx2 never removes it) and anything left.
+        lumen_client::local::remove_prefix(&self.prefix);
         Ok(IpcReport {
             scene: format!("{scene_name}, interior contacts, precision 4"),
             floats_per_frame: layout.floats,
@@ -329,19 +330,4 @@ fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, f
         out.daemon_p50_us.push(me.service.p50_us);
     }
     Ok(out)
-}
-
-/// Removes iceoryx2's 16-byte per-prefix node counter once nothing else of `prefix` is left in
-/// /dev/shm (the benchmark's private prefix: no other process uses it).
-fn remove_node_counter(prefix: &str) {
-    let left: Vec<String> = std::fs::read_dir("/dev/shm")
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(prefix)).collect())
-        .unwrap_or_default();
-    if left.iter().all(|f| f.ends_with(".global_mgmt")) {
-        if let Ok(cfg) = lumen_client::local::config(Some(prefix)) {
-            // SAFETY: the daemon has exited and this process's clients are gone: nothing uses
-            // the prefix any more.
-            let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<iceoryx2::service::ipc::Service>(&cfg) };
-        }
-    }
 }

@@ -1,10 +1,12 @@
 //! The `lumen` command line: one module per subcommand.
 
 pub mod bench;
+pub mod demo;
 pub mod import;
 pub mod record;
 pub mod replay;
 pub mod serve;
+pub mod sim;
 pub mod status;
 pub mod transport;
 
@@ -30,6 +32,10 @@ pub enum Command {
     Status(status::StatusArgs),
     /// Build a tube model from a triangle surface and its midline (ray casts per ring).
     Import(import::ImportArgs),
+    /// Run the colonoscopy physics against the daemon, as a lab's own engine would.
+    Sim(sim::SimArgs),
+    /// The whole loop in one command: daemon, physics and recorder, a progress bar, a report.
+    Demo(demo::DemoArgs),
     /// Record a session's frames and contacts to an MCAP file until it ends or Ctrl-C.
     Record(record::RecordArgs),
     /// Play a recording back as a new session and compare the contacts with the recorded ones.
@@ -43,16 +49,19 @@ impl Cli {
     /// Runs the chosen subcommand.
     pub fn run(self) -> ExitCode {
         init_logging(&self.log);
+        let done = |r: CliResult| r.map(|()| ExitCode::SUCCESS);
         let result = match self.command {
-            Command::Serve(a) => serve::run(a),
-            Command::Status(a) => status::run(a),
-            Command::Import(a) => import::run(a),
-            Command::Record(a) => record::run(a),
-            Command::Replay(a) => replay::run(a),
-            Command::Bench(b) => b.run(),
+            Command::Serve(a) => done(serve::run(a)),
+            Command::Status(a) => done(status::run(a)),
+            Command::Import(a) => done(import::run(a)),
+            Command::Sim(a) => sim::run(a),
+            Command::Demo(a) => demo::run(a),
+            Command::Record(a) => done(record::run(a)),
+            Command::Replay(a) => done(replay::run(a)),
+            Command::Bench(b) => done(b.run()),
         };
         match result {
-            Ok(()) => ExitCode::SUCCESS,
+            Ok(code) => code,
             Err(e) => {
                 eprintln!("lumen: {e}");
                 ExitCode::FAILURE

@@ -1,25 +1,61 @@
 //! How a client subcommand reaches the daemon: iceoryx2 on this machine (`--prefix`), or zenoh
-//! (`--zenoh ENDPOINT`). Shared by `lumen status`, `lumen record` and `lumen replay`.
+//! (`--zenoh ENDPOINT`, or `--transport zenoh` for the default endpoint). Shared by every client
+//! subcommand (`lumen status`, `lumen sim`, `lumen record`, `lumen replay`).
 
-use clap::Args;
-use lumen_client::{Client, LocalOptions};
+use clap::{Args, ValueEnum};
+use lumen_client::{Client, LocalOptions, Transport};
 
+/// The zenoh endpoint clients use when none is given (a daemon started with
+/// `--zenoh-listen tcp/0.0.0.0:7447` on this machine).
+pub const DEFAULT_ZENOH: &str = "tcp/127.0.0.1:7447";
+
+/// Transport choice on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TransportArg {
+    /// Shared memory on this machine.
+    Iceoryx2,
+    /// The network (tcp or tls endpoint).
+    Zenoh,
+}
+
+impl From<TransportArg> for Transport {
+    fn from(t: TransportArg) -> Self {
+        match t {
+            TransportArg::Iceoryx2 => Transport::Iceoryx2,
+            TransportArg::Zenoh => Transport::Zenoh,
+        }
+    }
+}
+
+/// The daemon to talk to.
 #[derive(Debug, Clone, Args)]
 pub struct TransportArgs {
-    /// Reach the daemon over zenoh at this endpoint instead of iceoryx2.
-    #[arg(long = "zenoh", value_name = "ENDPOINT")]
-    pub zenoh: Option<String>,
+    /// Transport (default: zenoh if --zenoh is given, else iceoryx2).
+    #[arg(long = "transport", value_enum)]
+    pub kind: Option<TransportArg>,
     /// iceoryx2 prefix of the daemon (env LUMEN_IOX2_PREFIX).
     #[arg(long, env = "LUMEN_IOX2_PREFIX")]
     pub prefix: Option<String>,
+    /// zenoh endpoint of the daemon (default tcp/127.0.0.1:7447); implies --transport zenoh.
+    #[arg(long = "zenoh", value_name = "ENDPOINT")]
+    pub zenoh: Option<String>,
 }
 
 impl TransportArgs {
-    /// A client over the chosen transport; `name` is what `lumen status` shows for it.
+    /// The transport these flags choose.
+    pub fn transport(&self) -> Transport {
+        match (self.kind, &self.zenoh) {
+            (Some(t), _) => t.into(),
+            (None, Some(_)) => Transport::Zenoh,
+            (None, None) => Transport::Iceoryx2,
+        }
+    }
+
+    /// A client of the daemon, showing as `name` in `lumen status`.
     pub fn client(&self, name: &str) -> Result<Client, lumen_client::Error> {
-        match &self.zenoh {
-            Some(ep) => Ok(Client::zenoh(ep)?.with_name(name)),
-            None => Client::local_with(LocalOptions { prefix: self.prefix.clone(), name: Some(name.into()) }),
+        match self.transport() {
+            Transport::Zenoh => Ok(Client::zenoh(self.zenoh.as_deref().unwrap_or(DEFAULT_ZENOH))?.with_name(name)),
+            Transport::Iceoryx2 => Client::local_with(LocalOptions { prefix: self.prefix.clone(), name: Some(name.into()) }),
         }
     }
 }

@@ -1,5 +1,6 @@
-//! Runs the scripted colonoscopy with in-process detection and prints its figures (until
-//! `lumen sim` runs it against the daemon).
+//! Runs the scripted colonoscopy with in-process detection and prints its figures: the
+//! physics developer's variant of `lumen sim` (which runs the same [`World`] against the daemon,
+//! see `service/src/cli/sim.rs`), with the tuning and tracing flags below.
 //!
 //! ```text
 //! lumen-sim-run [--frames N] [--scene generated|gca] [--data DIR] [--inflate F] [--seed S]
