@@ -13,7 +13,7 @@
 //! whatever the prefix left in /dev/shm is removed, and the exit status is 130.
 
 use super::transport::TransportArg;
-use super::sim::SceneArg;
+use super::sim::RunArgs;
 use crate::daemon::{block_termination_signals, wait_signal};
 use crate::demo_report::{self, Summary};
 use crate::figures::{FrameRow, RunFigures, SimLine};
@@ -29,15 +29,8 @@ pub const MAX_PENETRATION_MM: f32 = 1.0;
 
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Frames to simulate (1 ms of simulated time each; the default script is 3,000).
-    #[arg(long, default_value_t = 3000)]
-    pub frames: u64,
-    /// The colon.
-    #[arg(long, value_enum, default_value = "generated")]
-    pub scene: SceneArg,
-    /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
-    #[arg(long)]
-    pub data: Option<PathBuf>,
+    #[command(flatten)]
+    pub run: RunArgs,
     /// How the physics talks to the daemon.
     #[arg(long, value_enum, default_value = "iceoryx2")]
     pub transport: TransportArg,
@@ -68,7 +61,7 @@ impl From<String> for Stop {
 pub fn run(args: DemoArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // Before any thread exists, so every thread has them blocked and they arrive in the loop.
     block_termination_signals();
-    if args.frames == 0 {
+    if args.run.frames == 0 {
         return Err("--frames must be at least 1".into());
     }
     std::fs::create_dir_all(&args.out).map_err(|e| format!("--out {}: {e}", args.out.display()))?;
@@ -123,11 +116,11 @@ impl Run<'_> {
         self.expect_line(0, "lumen serve: ready", Duration::from_secs(30))?;
 
         let figures_path = self.args.out.join("frames.jsonl");
-        let every = (self.args.frames / 50).clamp(1, 100);
+        let every = (self.args.run.frames / 50).clamp(1, 100);
         let mut sim = Command::new(&exe);
-        sim.args(["sim", "--log", "warn", "--hold", "--scene", self.args.scene.name(), "--prefix", self.prefix]);
-        sim.arg("--frames").arg(self.args.frames.to_string()).arg("--progress-every").arg(every.to_string()).arg("--figures").arg(&figures_path);
-        if let Some(d) = &self.args.data {
+        sim.args(["sim", "--log", "warn", "--hold", "--scene", self.args.run.scene.name(), "--prefix", self.prefix]);
+        sim.arg("--frames").arg(self.args.run.frames.to_string()).arg("--progress-every").arg(every.to_string()).arg("--figures").arg(&figures_path);
+        if let Some(d) = &self.args.run.data {
             sim.arg("--data").arg(d);
         }
         match &zenoh {
@@ -186,7 +179,7 @@ impl Run<'_> {
 
     /// Shows the sim's progress until it ends; returns its last line and exit status.
     fn follow_sim(&mut self) -> Result<(Option<SimLine>, Option<std::process::ExitStatus>), Stop> {
-        let bar = ProgressBar::new(self.args.frames);
+        let bar = ProgressBar::new(self.args.run.frames);
         bar.set_style(ProgressStyle::with_template("{bar:30} {pos}/{len} frames {msg}").expect("template"));
         let mut last = None;
         loop {
@@ -224,7 +217,7 @@ impl Run<'_> {
             p.stop(libc::SIGTERM, Duration::from_secs(10));
         }
         let rows = read_rows(figures_path)?;
-        let mut summary = Summary::new(self.args.scene.name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
+        let mut summary = Summary::new(self.args.run.scene.name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
         summary.recording = recording;
         demo_report::write(&self.args.out, &summary, &rows).map_err(|e| format!("writing the report in {}: {e}", self.args.out.display()))?;
         println!("{}", summary.text());

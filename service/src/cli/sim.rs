@@ -39,9 +39,10 @@ impl SceneArg {
     }
 }
 
-#[derive(Debug, Args)]
-pub struct SimArgs {
-    /// Frames to run (1 ms of simulated time each).
+/// The run's length and its colon: the same flags for `lumen sim` and `lumen demo`.
+#[derive(Debug, Clone, Args)]
+pub struct RunArgs {
+    /// Frames to run (1 ms of simulated time each; the default script is 3,000).
     #[arg(long, default_value_t = 3000)]
     pub frames: u64,
     /// The colon.
@@ -50,6 +51,12 @@ pub struct SimArgs {
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
     #[arg(long)]
     pub data: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    #[command(flatten)]
+    pub run: RunArgs,
     /// Seed of the generated colon.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -79,16 +86,16 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     if !(args.reply_timeout > 0.0 && args.reply_timeout.is_finite()) {
         return Err(format!("--reply-timeout must be a positive number of seconds, not {}", args.reply_timeout).into());
     }
-    let colon = match args.scene {
+    let colon = match args.run.scene {
         SceneArg::Generated => setup::Colon::Generated { seed: args.seed },
         SceneArg::Gca => setup::Colon::Gca,
     };
     let t0 = Instant::now();
-    let colon = setup::colon(colon, args.data.as_deref()).map_err(|e| format!("the {} colon: {e}", args.scene.name()))?;
-    if args.scene == SceneArg::Gca {
+    let colon = setup::colon(colon, args.run.data.as_deref()).map_err(|e| format!("the {} colon: {e}", args.run.scene.name()))?;
+    if args.run.scene == SceneArg::Gca {
         eprintln!("data: {}", lumen_scene::gca_attribution());
     }
-    eprintln!("lumen sim: {} colon, {} rings x {} spokes, built in {:.2?}", args.scene.name(), colon.rings(), colon.spokes, t0.elapsed());
+    eprintln!("lumen sim: {} colon, {} rings x {} spokes, built in {:.2?}", args.run.scene.name(), colon.rings(), colon.spokes, t0.elapsed());
     let config = SimConfig::default();
     let spec = setup::scene_spec(&colon, &config.rod, &config.sim);
     let client = args.transport.client("lumen sim")?;
@@ -103,16 +110,16 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     let mut source = DaemonSource::new(session);
     source.timeout = Duration::from_secs_f64(args.reply_timeout);
     let mut world = World::new(&colon, config, source)?;
-    eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.frames, args.transport.transport());
+    eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.run.frames, args.transport.transport());
     let mut figures = match &args.figures {
         Some(p) => Some(BufWriter::new(std::fs::File::create(p).map_err(|e| format!("--figures {}: {e}", p.display()))?)),
         None => None,
     };
-    let mut tally = Tally::new(args.frames);
+    let mut tally = Tally::new(args.run.frames);
     let mut error = None;
     let mut interrupted = false;
     let start = Instant::now();
-    for _ in 0..args.frames {
+    for _ in 0..args.run.frames {
         if let Some(sig) = wait_signal(Duration::ZERO) {
             error = Some(format!("interrupted by signal {sig} after {} frames", world.frame()));
             interrupted = true;
