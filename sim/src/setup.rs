@@ -46,7 +46,7 @@ pub fn gca_colon_inflated(dir: Option<&Path>, inflate: f32) -> Result<Tube, Stri
     let (mesh, line) = gca_paths(dir)?;
     let mesh = load_mesh(&mesh).map_err(|e| e.to_string())?;
     let line = load_centerline_csv(&line).map_err(|e| e.to_string())?;
-    let params = ImportParams { spokes: 32, ring_spacing: 1.0, inflate, ..Default::default() };
+    let params = ImportParams { inflate, ..ImportParams::gca() };
     build_tube(&mesh, &line, &params).map(|(t, _)| t).map_err(|e| e.to_string())
 }
 

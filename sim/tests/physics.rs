@@ -184,3 +184,32 @@ fn frame_rate_on_the_full_generated_colon() {
         if cfg!(debug_assertions) { " [debug assertions on]" } else { "" }
     );
 }
+
+#[test]
+fn the_scripted_colonoscopy_in_the_real_colon_never_escapes() {
+    // The real colon bends tighter than its lumen is wide at its flexures; with ring planes that
+    // crossed there (tangents smoothed over 4 mm instead of 24) this run let up to 188 samples
+    // escape and penetrated 120 mm. Skipped, saying so, where the data is absent.
+    let colon = match setup::gca_colon(None) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            return;
+        }
+    };
+    let config = SimConfig { script: Script::short_colonoscopy(), sim: lumen_sim::SimParams { relax_s: 0.05, ..Default::default() }, ..SimConfig::default() };
+    let mut world = World::in_process(&colon, config).unwrap();
+    let (mut worst, mut force) = (0.0f32, 0.0f64);
+    for _ in 0..600 {
+        let r = world.step().unwrap_or_else(|e| panic!("{e}"));
+        assert!(!r.nan);
+        assert_eq!(r.escaped, 0, "frame {} ({}): {r:?}", r.frame, r.phase_name);
+        // Measured 3.4 mm at most (frame 569, the hard push): the 1 mm of the generated colon
+        // is not reached here yet, but a crossing of planes costs tens of millimetres.
+        assert!(r.max_penetration_mm <= 5.0, "frame {} ({}): {r:?}", r.frame, r.phase_name);
+        worst = worst.max(r.max_penetration_mm);
+        force = force.max(r.hand_force_n);
+    }
+    eprintln!("600 frames in the real colon: max penetration {worst:.3} mm, hand force up to {force:.1} N");
+    assert!(force > 30.0, "the hard push pushed hard: {force:.1} N");
+}

@@ -112,7 +112,7 @@ pub fn colon(kind: SceneKind, spokes: usize, ring_factor: f32, opts: &Options, g
         }
         SceneKind::Gca => {
             let g = gca.ok_or_else(|| Error::Scene("the GCA colon is not loaded".into()))?;
-            let p = ImportParams { spokes, ring_spacing: spacing, inflate: 2.0, ..ImportParams::default() };
+            let p = ImportParams { spokes, ring_spacing: spacing, ..ImportParams::gca() };
             let (tube, rep) = build_tube(&g.mesh, &g.line, &p).map_err(|e| Error::Scene(format!("gca import: {e}")))?;
             Ok((tube, Some(rep.to_string())))
         }

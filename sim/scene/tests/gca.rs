@@ -30,7 +30,7 @@ fn real_colon_imports_with_plausible_numbers() {
     assert_eq!(line.points.len(), 1375);
     assert!((line.length() - 1248.6).abs() < 2.0, "midline {:.1} mm", line.length());
     let t0 = Instant::now();
-    let (tube, rep) = build_tube(&mesh, &line, &ImportParams { spokes: 32, ring_spacing: 1.0, inflate: 2.0, ..Default::default() }).unwrap();
+    let (tube, rep) = build_tube(&mesh, &line, &ImportParams::gca()).unwrap();
     eprintln!("built in {:?}\n{rep}", t0.elapsed());
     assert_eq!(tube.rings(), 1249);
     assert_eq!(rep.rays, 1249 * 32);
@@ -50,7 +50,7 @@ fn real_colon_imports_with_plausible_numbers() {
 #[test]
 fn scope_frames_in_the_real_colon_stay_inside_except_recorded_escapes() {
     let Some((mesh, line)) = gca() else { return };
-    let (colon, _) = build_tube(&mesh, &line, &ImportParams { spokes: 32, ring_spacing: 1.0, inflate: 2.0, ..Default::default() }).unwrap();
+    let (colon, _) = build_tube(&mesh, &line, &ImportParams::gca()).unwrap();
     let frames: Vec<Frame> = Insertion::default().frames(&colon, 60, 700.0, 1.0, 2).collect();
     let mut escaped = 0;
     for f in &frames {
