@@ -19,6 +19,11 @@ use lumen_proto::Contact;
 /// Ring planes a sample may walk per frame before it re-acquires through the BVH.
 pub const WINDOW: usize = 32;
 
+/// Segments along the tube within which a sample's second opinion looks for a section holding
+/// it: folded planes at a tight bend lie within a few centimetres of arc (1 mm rings), a
+/// neighbouring loop much further.
+pub const FOLD_REACH: usize = 2 * WINDOW;
+
 /// What a sample remembers between frames.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Track {
@@ -132,8 +137,8 @@ pub fn reacquire(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3,
 /// Where the midline bends tighter than the lumen is wide, neighbouring ring planes cross inside
 /// the lumen, and the walk can stop at a segment whose planes bracket the point while another
 /// segment's planes bracket it too, one whose section holds it. The lumen is the union of its
-/// sections, so every segment whose box holds the point and whose planes bracket it is read, and
-/// the most inside wins. Readings at a segment whose planes do not bracket the point are not
+/// sections there, so every segment within [`FOLD_REACH`] whose box holds the point and whose
+/// planes bracket it is read, and the most inside wins. Readings at a segment whose planes do not bracket the point are not
 /// taken: they call escaped samples inside (measured: the benchmark's pushed-through samples went
 /// undetected). A sample truly through the wall is outside every bracketing section and stays a
 /// contact with positive depth. Only samples found outside pay for this.
@@ -143,7 +148,9 @@ fn second_opinion(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3
     counters.candidates += nh as u32;
     let mut best = first;
     for &i in &hits[..nh] {
-        if i == first.seg {
+        // A loop of the tube far along it may overlap this one (an inflated import): its lumen is
+        // not this sample's, the wall between them is real.
+        if i == first.seg || i.abs_diff(first.seg) > FOLD_REACH {
             continue;
         }
         if let Axial::In { seg, u } = cache.axial(t, p, i, 0) {
