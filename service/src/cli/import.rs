@@ -7,7 +7,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumen_detect::model::{save_native, to_text};
 use lumen_detect::Body;
-use lumen_scene::import::{build_tube, load_centerline_csv, load_mesh, ImportParams};
+use lumen_scene::import::{build_tube, load_centerline_csv, load_mesh, ImportError, ImportParams};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -44,25 +44,6 @@ pub struct ImportArgs {
 }
 
 pub fn run(a: ImportArgs) -> CliResult {
-    if !(a.spokes >= 3 && a.spokes <= lumen_proto::limits::MAX_SPOKES) {
-        return Err(format!("--spokes {}: expected 3 to {}", a.spokes, lumen_proto::limits::MAX_SPOKES).into());
-    }
-    for (name, v) in [("--ring-spacing", a.ring_spacing), ("--inflate", a.inflate)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(format!("{name} {v}: expected a positive number").into());
-        }
-    }
-    for (name, v) in [("--tangent-smoothing", a.tangent_smoothing), ("--point-smoothing", a.point_smoothing)] {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(format!("{name} {v}: expected a number >= 0").into());
-        }
-    }
-    let spinner = ProgressBar::new_spinner().with_style(ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("a valid template"));
-    spinner.enable_steady_tick(Duration::from_millis(120));
-    spinner.set_message(format!("reading {}", a.mesh.display()));
-    let mesh = load_mesh(&a.mesh)?;
-    let centerline = load_centerline_csv(&a.centerline)?;
-    spinner.set_message(format!("casting {} rays per ring along {:.0} of midline", a.spokes, centerline.length()));
     let params = ImportParams {
         spokes: a.spokes,
         ring_spacing: a.ring_spacing,
@@ -70,6 +51,21 @@ pub fn run(a: ImportArgs) -> CliResult {
         tangent_smoothing_mm: a.tangent_smoothing,
         point_smoothing_mm: a.point_smoothing,
     };
+    // Refused before the files are read, naming the flag: a wrong flag should not cost a mesh
+    // load.
+    if let Err(e) = params.validate() {
+        return Err(match e {
+            ImportError::Param { name, value, expected } => format!("--{} {value}: expected {expected}", name.replace('_', "-")),
+            e => e.to_string(),
+        }
+        .into());
+    }
+    let spinner = ProgressBar::new_spinner().with_style(ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("a valid template"));
+    spinner.enable_steady_tick(Duration::from_millis(120));
+    spinner.set_message(format!("reading {}", a.mesh.display()));
+    let mesh = load_mesh(&a.mesh)?;
+    let centerline = load_centerline_csv(&a.centerline)?;
+    spinner.set_message(format!("casting {} rays per ring along {:.0} of midline", a.spokes, centerline.length()));
     let built = build_tube(&mesh, &centerline, &params);
     spinner.finish_and_clear();
     let (tube, report) = built?;

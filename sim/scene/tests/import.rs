@@ -231,13 +231,19 @@ fn a_second_cylinder_fused_to_it_is_repaired_and_counted() {
 #[test]
 fn bad_parameters_are_refused() {
     let mesh = cylinder(0.0, 10.0, 100.0, 16, 4);
-    for p in [
-        ImportParams { spokes: 2, ..Default::default() },
-        ImportParams { ring_spacing: 0.0, ..Default::default() },
-        ImportParams { inflate: -1.0, ..Default::default() },
+    for (p, named) in [
+        (ImportParams { spokes: 2, ..Default::default() }, "spokes 2"),
+        (ImportParams { spokes: 257, ..Default::default() }, "spokes 257"),
+        (ImportParams { ring_spacing: 0.0, ..Default::default() }, "ring_spacing 0"),
+        (ImportParams { inflate: -1.0, ..Default::default() }, "inflate -1"),
+        (ImportParams { tangent_smoothing_mm: -1.0, ..Default::default() }, "tangent_smoothing -1"),
+        (ImportParams { point_smoothing_mm: f32::NAN, ..Default::default() }, "point_smoothing NaN"),
     ] {
-        assert!(build_tube(&mesh, &axis(3), &p).is_err());
+        let e = build_tube(&mesh, &axis(3), &p).unwrap_err().to_string();
+        assert!(e.contains(named), "{e}");
+        assert_eq!(p.validate().unwrap_err().to_string(), e);
     }
+    assert!(ImportParams::default().validate().is_ok() && ImportParams::gca().validate().is_ok());
     assert!(build_tube(&Mesh::default(), &axis(3), &ImportParams::default()).is_err());
     let one = Centerline { points: vec![[0.0; 3], [0.0; 3]], ..Default::default() };
     assert!(build_tube(&mesh, &one, &ImportParams::default()).is_err());

@@ -33,6 +33,25 @@ impl Default for ImportParams {
 }
 
 impl ImportParams {
+    /// Checks every parameter; the error names the one that is wrong and what it must be.
+    pub fn validate(&self) -> Result<(), ImportError> {
+        let max = lumen_detect::proto::limits::MAX_SPOKES;
+        if !(3..=max).contains(&self.spokes) {
+            return Err(ImportError::Param { name: "spokes", value: self.spokes.to_string(), expected: format!("3 to {max}") });
+        }
+        for (name, v) in [("ring_spacing", self.ring_spacing), ("inflate", self.inflate)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ImportError::Param { name, value: v.to_string(), expected: "a positive number".into() });
+            }
+        }
+        for (name, v) in [("tangent_smoothing", self.tangent_smoothing_mm), ("point_smoothing", self.point_smoothing_mm)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ImportError::Param { name, value: v.to_string(), expected: "a number >= 0".into() });
+            }
+        }
+        Ok(())
+    }
+
     /// Lumen's parameters for the GCA colon (EdinGCA_3D_00090), used by the `gca` scene
     /// everywhere: 32 spokes every 1 mm, inflated twice, tangents smoothed with sigma
     /// [`GCA_TANGENT_SMOOTHING_MM`].
@@ -222,18 +241,10 @@ const NEIGHBOUR_RATIO: f64 = 0.75;
 /// of each kept, the others repaired and counted in the [`ImportReport`], all scaled by
 /// `inflate`.
 pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
+    params.validate()?;
     let b = params.spokes;
-    if !(3..=256).contains(&b) {
-        return Err(ImportError::Invalid(format!("{b} spokes; 3 to 256 are allowed")));
-    }
     let spacing = params.ring_spacing as f64;
-    if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(ImportError::Invalid(format!("ring spacing must be > 0, got {}", params.ring_spacing)));
-    }
     let inflate = params.inflate as f64;
-    if !(inflate.is_finite() && inflate > 0.0) {
-        return Err(ImportError::Invalid(format!("inflate must be > 0, got {}", params.inflate)));
-    }
     if mesh.triangles.is_empty() {
         return Err(ImportError::Invalid("the surface has no triangles".into()));
     }
@@ -254,10 +265,10 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     if !(2..=65_536).contains(&rings) {
         return Err(ImportError::Invalid(format!("{rings} rings ({length:.1} mm of midline every {spacing} mm); 2 to 65,536 are allowed")));
     }
-    let smooth = smooth_along(&raw, &raw_arc, params.point_smoothing_mm.max(0.0) as f64);
+    let smooth = smooth_along(&raw, &raw_arc, params.point_smoothing_mm as f64);
     let pts: Vec<D3> = (0..rings).map(|i| at_arc(&smooth, &raw_arc, i as f64 * spacing)).collect();
     let arc = arc_lengths(&pts);
-    let tan = tangents(&pts, &arc, params.tangent_smoothing_mm.max(0.0) as f64);
+    let tan = tangents(&pts, &arc, params.tangent_smoothing_mm as f64);
     let nrm = rotation_minimising(&pts, &tan, any_perpendicular(tan[0]));
     let s_nominal: Vec<f64> = (0..rings).map(|i| i as f64 * spacing).collect();
 

@@ -48,6 +48,10 @@ pub enum ImportError {
     Parse { file: String, line: usize, message: String },
     #[error("{0}")]
     Invalid(String),
+    /// An [`ImportParams`] field out of range: which one (as `ImportParams` names it, less the
+    /// unit), its value, and what it must be.
+    #[error("{name} {value}: expected {expected}")]
+    Param { name: &'static str, value: String, expected: String },
 }
 
 /// The attribution the GCA data's licence (CC BY 4.0) requires wherever the data or results
