@@ -141,6 +141,23 @@ mod tests {
         assert_ne!(a, b);
         assert!(a < 1 << 53 && b < 1 << 53);
     }
+
+    #[test]
+    fn session_thread_names_fit_linux_and_tell_neighbouring_sessions_apart() {
+        // Linux keeps 15 bytes of a thread's name; the old "iox2-session-<id>" cut every id.
+        let (a, b) = (thread_name("iox2-s", 1131356597671358), thread_name("iox2-s", 1131356597671359));
+        assert_eq!((a.as_str(), b.as_str()), ("iox2-s597671358", "iox2-s597671359"));
+        assert_eq!(thread_name("zenoh-s", 42), "zenoh-s00000042");
+        assert!(thread_name("zenoh-s", u64::MAX).len() <= 15);
+    }
+}
+
+/// A session thread's name: `kind` and as many of the id's last digits as fit in the 15 bytes
+/// Linux keeps (gdb, top and /proc show only those), so two sessions' threads never look alike.
+pub fn thread_name(kind: &str, id: u64) -> String {
+    let digits = 15usize.saturating_sub(kind.len()).clamp(1, 19) as u32;
+    let low = id % 10u64.pow(digits);
+    format!("{kind}{low:0width$}", width = digits as usize)
 }
 
 /// Runs session `id` on its own thread named `name`: `run` gets a sender on which it reports
