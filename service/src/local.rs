@@ -150,6 +150,9 @@ struct Channels {
     _events: (EventService, EventService, ContactsService),
 }
 
+/// A publish-subscribe service of `[T]` slices with header `H`, and its event service.
+type Channel<T, H> = (iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, EventService);
+
 /// Creates one of a session's two channels: a publish-subscribe service of `[T]` slices with
 /// header `H` (one publisher; the session's other side and every observer subscribe; the newest
 /// sample wins when a subscriber falls behind) and its event, which also tells when a peer dies.
@@ -160,7 +163,7 @@ fn channel<T: std::fmt::Debug + IceoryxSend + ZeroCopySend, H: std::fmt::Debug +
     subs: usize,
     buffer: usize,
     borrowed: usize,
-) -> Result<(iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, EventService), ClientError> {
+) -> Result<Channel<T, H>, ClientError> {
     let e = |step: &str, err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("creating the {what} {step}: {err:?}"));
     let name = service_name(name)?;
     let data = node
