@@ -137,7 +137,7 @@ impl Local {
 /// Starts a session's thread; the inner result says whether its channels were created.
 fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
     let id = plan.entry.info.session;
-    crate::registry::spawn_session(format!("iox2-session-{id}"), id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
+    crate::registry::spawn_session(crate::registry::thread_name("iox2-s", id), id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
 }
 
 /// A session's services and ports.
@@ -150,6 +150,9 @@ struct Channels {
     _events: (EventService, EventService, ContactsService),
 }
 
+/// A publish-subscribe service of `[T]` slices with header `H`, and its event service.
+type Channel<T, H> = (iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, EventService);
+
 /// Creates one of a session's two channels: a publish-subscribe service of `[T]` slices with
 /// header `H` (one publisher; the session's other side and every observer subscribe; the newest
 /// sample wins when a subscriber falls behind) and its event, which also tells when a peer dies.
@@ -160,7 +163,7 @@ fn channel<T: std::fmt::Debug + IceoryxSend + ZeroCopySend, H: std::fmt::Debug +
     subs: usize,
     buffer: usize,
     borrowed: usize,
-) -> Result<(iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, EventService), ClientError> {
+) -> Result<Channel<T, H>, ClientError> {
     let e = |step: &str, err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("creating the {what} {step}: {err:?}"));
     let name = service_name(name)?;
     let data = node
@@ -211,8 +214,8 @@ impl Channels {
         Ok(Self { frames, subscriber, listener, publisher, notifier, _events: (frame_events, contact_events, contacts) })
     }
 
-    /// Answers the newest waiting frame, if any.
-    fn serve(&self, engine: &mut Engine) {
+    /// Answers the newest waiting frame, if any; returns whether there was one.
+    fn serve(&self, engine: &mut Engine) -> bool {
         let received = Instant::now();
         let mut newest = None;
         loop {
@@ -225,7 +228,7 @@ impl Channels {
                 }
             }
         }
-        let Some(sample) = newest else { return };
+        let Some(sample) = newest else { return false };
         // The frame is read where the client wrote it: no copy.
         let (reply, contacts) = engine.run(Ok((*sample.user_header(), sample.payload())));
         let mut service = received.elapsed();
@@ -246,22 +249,23 @@ impl Channels {
         }
         drop(sample);
         engine.record(&reply, service);
+        true
     }
 
-    /// Whether the client's frame publisher is still there and its process alive.
+    /// Where the session's client stands: its frame publisher and the state of its process.
     ///
     /// A client killed with `kill -9` leaves its publisher registered until someone removes its
     /// dead node. The control thread tries that every tick, but a removal can fail for a while
     /// (another process or thread may be cleaning at the same moment), so the session does not
     /// wait for it: it asks for the publisher's node state itself and, when the node is dead,
-    /// removes its resources (best effort) and reports the client gone.
-    fn client_present(&self) -> bool {
+    /// removes its resources (best effort) and reports the client dead.
+    fn client(&self) -> ClientState {
         let mut publisher_node = None;
         self.frames.dynamic_config().list_publishers(|d| {
             publisher_node = Some(d.node_id);
             CallbackProgression::Stop
         });
-        let Some(client) = publisher_node else { return false };
+        let Some(client) = publisher_node else { return ClientState::Absent };
         let mut dead = None;
         let _ = self.frames.nodes(|state| match state {
             NodeState::Dead(view) if *view.id() == client => {
@@ -275,11 +279,22 @@ impl Channels {
                 if let Err(e) = view.try_remove_stale_resources() {
                     tracing::debug!("the dead client's resources are left to the next cleanup: {e:?}");
                 }
-                false
+                ClientState::Dead
             }
-            None => true,
+            None => ClientState::Present,
         }
     }
+}
+
+/// What a session's tick sees of its client.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ClientState {
+    /// No frame publisher: not attached yet, or gone and already cleaned up.
+    Absent,
+    /// A frame publisher whose process is alive (or not known to be dead).
+    Present,
+    /// A frame publisher whose process died.
+    Dead,
 }
 
 fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
@@ -292,25 +307,38 @@ fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Send
     let on_tick = waitset.attach_interval(TICK).map_err(|e| iox("attaching", e))?;
     let _ = ready.send(Ok(()));
     let opened = Instant::now();
-    let mut connected = false;
+    // Whether a client ever attached. Its frame publisher or a frame proves it, and so does
+    // the peer-died event: a client can attach, send frames and be killed before the first
+    // tick, and be cleaned up (by this daemon or by any other process of the prefix) before
+    // the tick looks, so "no publisher" alone cannot tell "not yet" from "gone".
+    let mut attached = false;
     let mut why = "daemon stopping";
     waitset
         .wait_and_process(|wake| {
             let mut peer_died = false;
             if wake.has_event_from(&on_frame) {
                 let _ = channels.listener.try_wait(|e| peer_died |= e.id == EVENT_PEER_DIED);
-                channels.serve(&mut engine);
+                attached |= channels.serve(&mut engine);
             }
             if peer_died || wake.has_event_from(&on_tick) {
                 engine.tick();
-                if channels.client_present() {
-                    connected = true;
-                } else if connected {
-                    why = "its client left";
-                    return CallbackProgression::Stop;
-                } else if opened.elapsed() > CONNECT_GRACE {
-                    why = "no client attached in time";
-                    return CallbackProgression::Stop;
+                // The frame event has one notifier, the client's: its death event is the client's.
+                let client = if peer_died { ClientState::Dead } else { channels.client() };
+                match client {
+                    ClientState::Present => attached = true,
+                    ClientState::Dead => {
+                        why = "its client died";
+                        return CallbackProgression::Stop;
+                    }
+                    ClientState::Absent if attached => {
+                        why = "its client left";
+                        return CallbackProgression::Stop;
+                    }
+                    ClientState::Absent if opened.elapsed() > CONNECT_GRACE => {
+                        why = "no client attached in time";
+                        return CallbackProgression::Stop;
+                    }
+                    ClientState::Absent => {}
                 }
                 if plan.entry.close.load(std::sync::atomic::Ordering::SeqCst) {
                     why = "closed on request";

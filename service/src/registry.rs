@@ -127,20 +127,12 @@ impl Registry {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_restarted_daemon_never_reuses_ids() {
-        // Two daemons started in the same instant (a kill -9 and restart) must not collide.
-        let ids: std::collections::HashSet<u64> = (0..100).map(|_| Registry::new(Limits::default()).next_id()).collect();
-        assert_eq!(ids.len(), 100);
-        let r = Registry::new(Limits::default());
-        let (a, b) = (r.next_id(), r.next_id());
-        assert_ne!(a, b);
-        assert!(a < 1 << 53 && b < 1 << 53);
-    }
+/// A session thread's name: `kind` and as many of the id's last digits as fit in the 15 bytes
+/// Linux keeps (gdb, top and /proc show only those), so two sessions' threads never look alike.
+pub fn thread_name(kind: &str, id: u64) -> String {
+    let digits = 15usize.saturating_sub(kind.len()).clamp(1, 19) as u32;
+    let low = id % 10u64.pow(digits);
+    format!("{kind}{low:0width$}", width = digits as usize)
 }
 
 /// Runs session `id` on its own thread named `name`: `run` gets a sender on which it reports
@@ -168,4 +160,29 @@ where
         .map_err(|e| e.to_string())?;
     let r = rx.recv_timeout(std::time::Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
     Ok((handle, r))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_restarted_daemon_never_reuses_ids() {
+        // Two daemons started in the same instant (a kill -9 and restart) must not collide.
+        let ids: std::collections::HashSet<u64> = (0..100).map(|_| Registry::new(Limits::default()).next_id()).collect();
+        assert_eq!(ids.len(), 100);
+        let r = Registry::new(Limits::default());
+        let (a, b) = (r.next_id(), r.next_id());
+        assert_ne!(a, b);
+        assert!(a < 1 << 53 && b < 1 << 53);
+    }
+
+    #[test]
+    fn session_thread_names_fit_linux_and_tell_neighbouring_sessions_apart() {
+        // Linux keeps 15 bytes of a thread's name; the old "iox2-session-<id>" cut every id.
+        let (a, b) = (thread_name("iox2-s", 1131356597671358), thread_name("iox2-s", 1131356597671359));
+        assert_eq!((a.as_str(), b.as_str()), ("iox2-s597671358", "iox2-s597671359"));
+        assert_eq!(thread_name("zenoh-s", 42), "zenoh-s00000042");
+        assert!(thread_name("zenoh-s", u64::MAX).len() <= 15);
+    }
 }

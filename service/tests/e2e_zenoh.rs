@@ -236,11 +236,18 @@ fn tls_files(tag: &str) -> (std::path::PathBuf, std::path::PathBuf, std::path::P
     (dir, paths.0, paths.1, paths.2)
 }
 
-// Ignored: a known intermittent failure, open in issue 4. In a from-scratch CI run the session
-// opened over TLS got no reply to its first frame in 5 tries of 3 s (control queries worked);
-// it passes in most runs and alone (`-- --ignored`). Not yet understood.
+// Ignored: a known intermittent failure, open in issue 4, in zenoh's TLS link, not in Lumen.
+// Reproduced in 4 of 40 runs of this whole file with 5 copies at once (never with this test
+// alone): the daemon's TLS link to the client dies right after the transport opens ("TX task
+// failed: handshake not complete", zenoh-link-tls 1.10.2 unicast.rs:206): zenoh reads and
+// writes one rustls stream from two tasks through an UnsafeCell, and rustls marks its state
+// `HandshakeNotComplete` while a read processes records, which a write at that instant
+// reports. The client reconnects by itself, but the daemon has ended the session ("its
+// client left") and the client, which only looks at the daemon token's latest sample, times
+// out (status then lists no session). In the other failures the client saw the daemon's
+// token deleted (`Disconnected`) with nothing in the daemon's log. Run it with `-- --ignored`.
 #[test]
-#[ignore = "known intermittent failure (issue 4): over TLS a session's first frame sometimes gets no reply"]
+#[ignore = "known intermittent failure (issue 4): zenoh-link-tls 1.10.2 can drop a fresh TLS link (read/write race), ending the session"]
 fn tls_round_trip_with_the_daemons_ca_and_refusals_without_it() {
     let (dir, ca, cert, key) = tls_files("rt");
     let port = free_port();
