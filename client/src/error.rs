@@ -13,8 +13,9 @@ pub enum Error {
     /// No reply within the timeout; the session still works.
     #[error("no contacts within {0:?}; the daemon may be busy: wait again or submit the next frame")]
     Timeout(Duration),
-    /// The daemon went away. Frames are dropped; the session reopens by itself on the next
-    /// `frame()` / `submit()` once a daemon answers again.
+    /// The daemon went away, or (zenoh) it no longer has this session, as after a dropped
+    /// link. Frames are dropped; the session reopens by itself on the next `frame()` /
+    /// `submit()` once a daemon answers again.
     #[error("the daemon went away; keep submitting: the session reopens by itself when a daemon is back")]
     Disconnected,
     /// `submit()` without a frame written since the last one.

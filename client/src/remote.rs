@@ -4,7 +4,7 @@
 use crate::control::{parse_reply, unexpected};
 use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
-use lumen_proto::session::{client_alive_name, ControlReply, ControlRequest, SessionInfo, Transport, CONTROL, DAEMON_ALIVE};
+use lumen_proto::session::{client_alive_name, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, CONTROL, DAEMON_ALIVE};
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use std::time::{Duration, Instant};
@@ -139,13 +139,29 @@ impl ZenohSession {
         })
     }
 
-    /// Whether the daemon's liveliness token went away since the last look.
+    /// Whether the daemon's liveliness token went away since the last look, even if it is back.
+    ///
+    /// Any `Delete` counts, not only the latest sample: when the link drops for a moment (seen
+    /// with zenoh-link-tls 1.10.2, which can drop a fresh TLS link) zenoh reconnects by itself
+    /// and the token comes back, but the daemon saw this client's token go too and ended the
+    /// session. Reopening is then the only way to be answered again.
     fn daemon_left(&self) -> bool {
         let mut left = false;
         while let Ok(Some(s)) = self.daemon.try_recv() {
-            left = s.kind() == SampleKind::Delete;
+            left |= s.kind() == SampleKind::Delete;
         }
         left
+    }
+
+    /// Whether the daemon says it has no such session (asked only after a timeout).
+    ///
+    /// A link that drops and comes back at once, while the session is being set up, can end the
+    /// session on the daemon before this client watches the daemon's token, so no `Delete` ever
+    /// reaches it; its frames then go unanswered. Only a definite "unknown session" counts: a
+    /// daemon that does not answer may just be busy, and its token says when it is gone.
+    fn session_gone(&self) -> bool {
+        let ask = ControlRequest::Describe { session: self.info.session };
+        matches!(request_on(&self.z, &self.endpoint, &ask, Duration::from_millis(300)), Ok(ControlReply::Error(e)) if e.code == ErrorCode::UnknownSession)
     }
 
     fn ensure_open(&mut self) -> Result<(), Error> {
@@ -215,6 +231,10 @@ impl ZenohSession {
                 return Err(Error::Disconnected);
             }
             if Instant::now() >= deadline {
+                if self.session_gone() {
+                    self.channels = None;
+                    return Err(Error::Disconnected);
+                }
                 return Err(Error::Timeout(timeout));
             }
         }
