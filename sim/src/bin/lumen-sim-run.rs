@@ -2,72 +2,123 @@
 //! physics developer's variant of `lumen sim` (which runs the same [`World`] against the daemon,
 //! see `service/src/cli/sim.rs`), with the tuning and tracing flags below.
 //!
-//! ```text
-//! lumen-sim-run [--frames N] [--scene generated|gca] [--data DIR] [--inflate F] [--seed S]
-//!               [--length MM] [--every K] [--no-self] [--substeps N] [--refine N]
-//!               [--stretch-passes N] [--max-speed MM_S] [--margin MM] [--wall-max MM]
-//!               [--wall-node MM] [--wall-membrane RATIO] [--wall-stiffness KPA_PER_MM]
-//!               [--script default|short] [--relax S] [--trace-pen MM]
-//! ```
+//! `cargo run --release -p lumen-sim --bin lumen-sim-run -- --help` lists the flags.
 
+use clap::{Parser, ValueEnum};
 use lumen_sim::{setup, SimConfig, World};
+use std::path::PathBuf;
 use std::time::Instant;
 
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SceneKind {
+    /// The seeded generated colon.
+    Generated,
+    /// The GCA colon (needs its files, see --data).
+    Gca,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ScriptKind {
+    /// The 3,000-frame colonoscopy with the hard push at the sigmoid.
+    Default,
+    /// The 600-frame version the tests run.
+    Short,
+}
+
+/// The scripted colonoscopy with in-process detection, and its figures.
+#[derive(Debug, Parser)]
+#[command(name = "lumen-sim-run")]
+struct Args {
+    /// Frames to run (1 ms each).
+    #[arg(long, default_value_t = 3000)]
+    frames: u64,
+    #[arg(long, value_enum, default_value = "generated")]
+    scene: SceneKind,
+    /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Inflation of the GCA colon.
+    #[arg(long, default_value_t = setup::GCA_INFLATE)]
+    inflate: f32,
+    /// Seed of the generated colon.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Length of the generated colon, mm.
+    #[arg(long, default_value_t = 1500.0)]
+    length: f32,
+    /// Print a line every K frames (0: none).
+    #[arg(long, default_value_t = 0)]
+    every: u64,
+    /// Print the deepest contact of every frame deeper than this, mm, with what the same sample
+    /// had at the frame's start.
+    #[arg(long)]
+    trace_pen: Option<f32>,
+    #[arg(long, value_enum, default_value = "default")]
+    script: ScriptKind,
+    /// Seconds the scope rests before the script starts.
+    #[arg(long)]
+    relax: Option<f64>,
+    /// No rod self-contact.
+    #[arg(long)]
+    no_self: bool,
+    #[arg(long)]
+    substeps: Option<u32>,
+    /// Axial re-projections of the detector.
+    #[arg(long)]
+    refine: Option<u32>,
+    #[arg(long)]
+    stretch_passes: Option<u32>,
+    /// Speed limit of the rod's points, mm/s.
+    #[arg(long)]
+    max_speed: Option<f64>,
+    /// Contact margin, mm.
+    #[arg(long)]
+    margin: Option<f32>,
+    /// Largest outward displacement of the wall, mm.
+    #[arg(long)]
+    wall_max: Option<f64>,
+    /// Spacing of the wall's nodes, mm.
+    #[arg(long)]
+    wall_node: Option<f64>,
+    /// Membrane stiffness as a ratio of the spring stiffness.
+    #[arg(long)]
+    wall_membrane: Option<f64>,
+    /// Wall stiffness, kPa per mm.
+    #[arg(long)]
+    wall_stiffness: Option<f64>,
+}
+
 fn main() {
-    let mut frames = 3000u64;
-    let mut scene = "generated".to_string();
-    let mut data = None;
-    let mut inflate = setup::GCA_INFLATE;
-    let mut seed = 1u64;
-    let mut length = 1500.0f32;
-    let mut every = 0u64;
-    let mut trace_pen: Option<f32> = None;
+    let a = Args::parse();
+    let (frames, every, trace_pen) = (a.frames, a.every, a.trace_pen);
     let mut config = SimConfig::default();
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        let mut val = || args.next().unwrap_or_else(|| panic!("{a} needs a value"));
-        match a.as_str() {
-            "--frames" => frames = val().parse().expect("--frames N"),
-            "--scene" => scene = val(),
-            "--data" => data = Some(std::path::PathBuf::from(val())),
-            "--inflate" => inflate = val().parse().expect("--inflate F"),
-            "--seed" => seed = val().parse().expect("--seed S"),
-            "--length" => length = val().parse().expect("--length MM"),
-            "--every" => every = val().parse().expect("--every K"),
-            "--trace-pen" => trace_pen = Some(val().parse().expect("--trace-pen MM")),
-            "--script" => match val().as_str() {
-                "default" => config.script = lumen_sim::Script::colonoscopy(),
-                "short" => config.script = lumen_sim::Script::short_colonoscopy(),
-                other => panic!("unknown script {other} (default or short)"),
-            },
-            "--relax" => config.sim.relax_s = val().parse().expect("--relax S"),
-            "--no-self" => config.sim.self_contact = false,
-            "--substeps" => config.sim.substeps = val().parse().expect("--substeps N"),
-            "--refine" => config.sim.refine = val().parse().expect("--refine N"),
-            "--stretch-passes" => config.sim.stretch_passes = val().parse().expect("--stretch-passes N"),
-            "--max-speed" => config.sim.max_speed_mm_s = val().parse().expect("--max-speed MM_S"),
-            "--margin" => config.sim.margin_mm = val().parse().expect("--margin MM"),
-            "--wall-max" => config.wall.max_out_mm = val().parse().expect("--wall-max MM"),
-            "--wall-node" => config.wall.node_spacing_mm = val().parse().expect("--wall-node MM"),
-            "--wall-membrane" => config.wall.membrane_ratio = val().parse().expect("--wall-membrane RATIO"),
-            "--wall-stiffness" => config.wall.stiffness_kpa_per_mm = val().parse().expect("--wall-stiffness KPA_PER_MM"),
-            other => {
-                eprintln!("unknown argument {other}");
-                std::process::exit(2);
-            }
-        }
+    if a.script == ScriptKind::Short {
+        config.script = lumen_sim::Script::short_colonoscopy();
     }
+    let sim = &mut config.sim;
+    sim.self_contact &= !a.no_self;
+    if let Some(v) = a.relax { sim.relax_s = v }
+    if let Some(v) = a.substeps { sim.substeps = v }
+    if let Some(v) = a.refine { sim.refine = v }
+    if let Some(v) = a.stretch_passes { sim.stretch_passes = v }
+    if let Some(v) = a.max_speed { sim.max_speed_mm_s = v }
+    if let Some(v) = a.margin { sim.margin_mm = v }
+    let wall = &mut config.wall;
+    if let Some(v) = a.wall_max { wall.max_out_mm = v }
+    if let Some(v) = a.wall_node { wall.node_spacing_mm = v }
+    if let Some(v) = a.wall_membrane { wall.membrane_ratio = v }
+    if let Some(v) = a.wall_stiffness { wall.stiffness_kpa_per_mm = v }
+    let scene = match a.scene {
+        SceneKind::Generated => "generated",
+        SceneKind::Gca => "gca",
+    };
     let t0 = Instant::now();
-    let colon = match scene.as_str() {
-        "generated" => setup::generated_colon(seed, length),
-        "gca" => setup::gca_colon_inflated(data.as_deref(), inflate).unwrap_or_else(|e| {
+    let colon = match a.scene {
+        SceneKind::Generated => setup::generated_colon(a.seed, a.length),
+        SceneKind::Gca => setup::gca_colon_inflated(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
             eprintln!("{e}");
             std::process::exit(2)
         }),
-        other => {
-            eprintln!("unknown scene {other} (generated or gca)");
-            std::process::exit(2)
-        }
     };
     if scene == "gca" {
         println!("data: {}", lumen_scene::gca_attribution());
