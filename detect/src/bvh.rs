@@ -77,7 +77,7 @@ impl ChainBvh {
 
     fn children(&self, level: usize, j: usize) -> impl Iterator<Item = usize> {
         let below = self.level_len(level - 1);
-        (2 * j..(2 * j + 2).min(below)).into_iter()
+        2 * j..(2 * j + 2).min(below)
     }
 
     /// Calls `hit(i)` for every leaf whose box overlaps `q`.

@@ -363,6 +363,8 @@ impl TubeCache {
         // nearest tip can lie a sector further round; the strip beyond them is not read, so only
         // the near side is checked.
         for (jt, before, after) in [(1usize, lam[0], lam[1]), (2, lam[1], lam[2]), (0, f32::NAN, lam[0]), (3, lam[2], f32::NAN)] {
+            // Negated on purpose: NaN (a degenerate strip) counts as beyond.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
             if none_yet || (!(before < 1.0) && !(after > 0.0)) {
                 let tip = c + vs[jt];
                 let tt = cprime + ds[jt];

@@ -8,7 +8,7 @@ use common::*;
 use lumen_detect::section::{Axial, TubeCache};
 use lumen_detect::view::TubeView;
 use lumen_detect::{Detector, Method, V3};
-use std::f32::consts::TAU;
+use std::f32::consts::{FRAC_1_SQRT_2, TAU};
 
 #[test]
 fn a_sample_reported_outside_is_outside_every_section_that_brackets_it() {
@@ -18,7 +18,7 @@ fn a_sample_reported_outside_is_outside_every_section_that_brackets_it() {
     let centre = |i: usize| if i <= 10 { [i as f32 * 4.0, 0.0, 0.0] } else { [40.0, (i - 10) as f32 * 4.0, 0.0] };
     let colon = tube(21, 24, centre, |i, k| {
         let a = k as f32 * TAU / 24.0;
-        let t: [f32; 3] = if i < 10 { [1.0, 0.0, 0.0] } else if i > 10 { [0.0, 1.0, 0.0] } else { [0.7071, 0.7071, 0.0] };
+        let t: [f32; 3] = if i < 10 { [1.0, 0.0, 0.0] } else if i > 10 { [0.0, 1.0, 0.0] } else { [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0] };
         add(scale([-t[1], t[0], 0.0], 10.0 * a.cos()), scale([0.0, 0.0, 1.0], 10.0 * a.sin()))
     });
     let mut data = Vec::new();

@@ -478,7 +478,7 @@ fn hard_self_contact_of_a_loop() {
         assert_eq!(c.kind, ContactKind::SelfContact as u8);
         let s = c.sample as usize;
         // The loop's far side (points 11 to 17, 6 or more from the crossing) touches nothing.
-        assert!(s < 11 * 4 || s > 17 * 4, "sample {s} is not at the crossing");
+        assert!(!(11 * 4..=17 * 4).contains(&s), "sample {s} is not at the crossing");
     }
     // Without the loop (a straight rod bent gently) nothing touches itself.
     let straight_rod = Scene::new().rod("scope", line([0.0, 0.0, 0.0], [50.0, 0.0, 0.0], 25, r)).pair("scope", "scope", ContactKind::SelfContact);

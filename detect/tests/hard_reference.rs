@@ -7,7 +7,7 @@ use lumen_detect::samples::RodSamples;
 use lumen_detect::view::RodView;
 use lumen_detect::{Contact, Method, Rod, Tube, V3};
 use lumen_oracle::Reference;
-use std::f32::consts::{PI, TAU};
+use std::f32::consts::{FRAC_1_SQRT_2, PI, TAU};
 
 /// Every rod sample as the detector takes it (same spline, same count).
 fn samples(rod: &Rod, x: usize) -> Vec<([f32; 3], f32)> {
@@ -86,7 +86,7 @@ fn hard_kink_90_degrees() {
     let colon = tube(n, 24, centre, |i, k| {
         let a = k as f32 * TAU / 24.0;
         // Rings perpendicular to the local direction (the corner ring bisects the turn).
-        let t: [f32; 3] = if i < 10 { [1.0, 0.0, 0.0] } else if i > 10 { [0.0, 1.0, 0.0] } else { [0.7071, 0.7071, 0.0] };
+        let t: [f32; 3] = if i < 10 { [1.0, 0.0, 0.0] } else if i > 10 { [0.0, 1.0, 0.0] } else { [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0] };
         let u = [-t[1], t[0], 0.0];
         add(scale(u, 10.0 * a.cos()), scale([0.0, 0.0, 1.0], 10.0 * a.sin()))
     });

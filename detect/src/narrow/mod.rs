@@ -34,6 +34,7 @@ pub(crate) fn arr(v: V3) -> [f32; 3] {
 impl Emit {
     /// A contact with `a`'s sample data filled in; the caller fills `b`'s side.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn contact(&self, sample: usize, seg_a: usize, u_a: f32, point_a: V3, point_b: V3, normal: V3, depth: f32) -> Contact {
         Contact {
             pair: self.pair,

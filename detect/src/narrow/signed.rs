@@ -183,6 +183,8 @@ pub fn interior(
     counters: &mut Counters,
 ) {
     let mut neighbour: Option<usize> = None;
+    // By index: a sample reads its position, radius and track, and writes its track.
+    #[allow(clippy::needless_range_loop)]
     for s in 0..rod.len() {
         let p = rod.pos[s];
         let tr = tracks[s];
@@ -246,6 +248,7 @@ pub fn interior(
 }
 
 /// Builds a contact against a tube wall; `normal` points from the rod towards the wall.
+#[allow(clippy::too_many_arguments)]
 fn tube_contact(rod: &RodSamples, s: usize, g: &Gap, r: f32, depth: f32, normal: V3, emit: &Emit, spokes: usize) -> Contact {
     let (ja, ua) = rod.segment_of(s);
     let p = rod.pos[s];
