@@ -9,7 +9,8 @@ use clap::Subcommand;
 pub enum BenchCommand {
     /// Speed against error of the collision methods (thesis, default, parry) over precisions,
     /// spokes and scenes; writes report.md, report.json and speed_vs_error.svg.
-    Detect(lumen_bench::cli::DetectArgs),
+    // Boxed: its many flags would make every `BenchCommand` as large.
+    Detect(Box<lumen_bench::cli::DetectArgs>),
     /// Round trip frame -> contacts over iceoryx2 and zenoh, against a bare echo.
     Ipc(ipc::IpcArgs),
 }
