@@ -137,28 +137,28 @@ pub fn reacquire(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3,
 /// Where the midline bends tighter than the lumen is wide, neighbouring ring planes cross inside
 /// the lumen, and the walk can stop at a segment whose planes bracket the point while another
 /// segment's planes bracket it too, one whose section holds it. The lumen is the union of its
-/// sections there, so every segment within [`FOLD_REACH`] whose box holds the point and whose
-/// planes bracket it is read, and the most inside wins. Readings at a segment whose planes do not bracket the point are not
-/// taken: they call escaped samples inside (measured: the benchmark's pushed-through samples went
-/// undetected). A sample truly through the wall is outside every bracketing section and stays a
+/// sections there, so every segment within [`FOLD_REACH`] whose planes bracket the point is
+/// read, and the most inside wins. Readings at a segment whose planes do not bracket the point
+/// are not taken: they call escaped samples inside (measured: the benchmark's pushed-through
+/// samples went undetected). A sample truly through the wall is outside every bracketing section and stays a
 /// contact with positive depth. Only samples found outside pay for this.
-fn second_opinion(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3, first: Gap, refine: u32, counters: &mut Counters) -> Gap {
-    let mut hits = [0usize; 16];
-    let nh = boxes_holding(bvh.ensure(t, cache), p, &mut hits);
-    counters.candidates += nh as u32;
+fn second_opinion(t: &TubeView, cache: &mut TubeCache, p: &V3, first: Gap, refine: u32) -> Gap {
+    // A scan of the planes near the first reading, not a BVH query: the BVH would be refit for
+    // the whole tube on every frame with an escaped sample.
+    let lo = first.seg.saturating_sub(FOLD_REACH);
+    let hi = (first.seg + FOLD_REACH).min(t.segments() - 1);
     let mut best = first;
-    for &i in &hits[..nh] {
-        // A loop of the tube far along it may overlap this one (an inflated import): its lumen is
-        // not this sample's, the wall between them is real.
-        if i == first.seg || i.abs_diff(first.seg) > FOLD_REACH {
-            continue;
-        }
-        if let Axial::In { seg, u } = cache.axial(t, p, i, 0) {
-            let g = cache.gap(t, p, seg, u, None, refine);
+    let mut d0 = cache.plane(t, lo, p);
+    for i in lo..=hi {
+        let d1 = cache.plane(t, i + 1, p);
+        if i != first.seg && d0 >= 0.0 && d1 <= 0.0 {
+            let u = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 0.0 };
+            let g = cache.gap(t, p, i, u, None, refine);
             if g.sd < best.sd {
                 best = g;
             }
         }
+        d0 = d1;
     }
     best
 }
@@ -236,7 +236,7 @@ pub fn interior(
             None => cache.gap(t, &p, seg, u, k_guess, params.refine),
         };
         if g.sd > 0.0 {
-            g = second_opinion(t, cache, bvh, &p, g, params.refine, counters);
+            g = second_opinion(t, cache, &p, g, params.refine);
         }
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
