@@ -71,9 +71,20 @@ impl ZenohClient {
 
 fn request_on(session: &zenoh::Session, endpoint: &str, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
     let json = serde_json::to_vec(request).expect("control requests serialise");
-    let no_daemon = |detail: String| Error::NoDaemon { transport: Transport::Zenoh, detail };
     let replies = session.get(CONTROL).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
-    let reply = replies.recv().map_err(|_| no_daemon(format!("no reply on {CONTROL} at {endpoint} within {timeout:?}")))?;
+    read_reply(replies.recv().ok(), endpoint, timeout)
+}
+
+/// [`request_on`] for async code.
+async fn request_on_async(session: &zenoh::Session, endpoint: &str, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+    let json = serde_json::to_vec(request).expect("control requests serialise");
+    let replies = session.get(CONTROL).payload(json).timeout(timeout).await.map_err(|e| Error::zenoh("sending a control request", e))?;
+    read_reply(replies.recv_async().await.ok(), endpoint, timeout)
+}
+
+fn read_reply(reply: Option<zenoh::query::Reply>, endpoint: &str, timeout: Duration) -> Result<ControlReply, Error> {
+    let no_daemon = |detail: String| Error::NoDaemon { transport: Transport::Zenoh, detail };
+    let reply = reply.ok_or_else(|| no_daemon(format!("no reply on {CONTROL} at {endpoint} within {timeout:?}")))?;
     match reply.result() {
         Ok(sample) => parse_reply(&sample.payload().to_bytes()),
         Err(e) => Err(no_daemon(format!("error reply: {}", String::from_utf8_lossy(&e.payload().to_bytes())))),
@@ -245,7 +256,17 @@ impl ZenohSession {
         match tokio::time::timeout(timeout, ch.replies.recv_async()).await {
             Ok(Ok(s)) => self.accept(s),
             Ok(Err(e)) => Err(Error::zenoh("receiving contacts", e)),
-            Err(_) => Err(Error::Timeout(timeout)),
+            Err(_) => {
+                // As `contacts`: a daemon that left, or no longer has the session, is `Disconnected`.
+                let ask = ControlRequest::Describe { session: self.info.session };
+                let gone = self.daemon_left()
+                    || matches!(request_on_async(&self.z, &self.endpoint, &ask, Duration::from_millis(300)).await, Ok(ControlReply::Error(e)) if e.code == ErrorCode::UnknownSession);
+                if gone {
+                    self.channels = None;
+                    return Err(Error::Disconnected);
+                }
+                Err(Error::Timeout(timeout))
+            }
         }
     }
 }

@@ -76,6 +76,18 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     assert!(same_bits(&again, reference.detect(&scene.state(1)).unwrap()));
     assert_ne!(s.id(), old);
     assert_eq!(s.reconnects(), 1);
+    // The same through `contacts_async`.
+    let second = s.id();
+    assert!(matches!(other.request(&lumen_proto::session::ControlRequest::Close { session: second }), Ok(lumen_proto::session::ControlReply::Closed { .. })));
+    assert!(lumen_e2e::eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+    s.frame().unwrap().copy_from_slice(&scene.state(2));
+    s.submit().unwrap();
+    let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();
+    assert!(matches!(lost, lumen_client::Error::Disconnected), "{lost:?}");
+    let again = (0..5).find_map(|_| round_trip(&mut s, 2).ok()).expect("answered after reopening");
+    assert!(same_bits(&again, reference.detect(&scene.state(2)).unwrap()));
+    assert_eq!(s.reconnects(), 2);
 }
 
 fn daemon(tag: &str) -> Daemon {
