@@ -1,5 +1,9 @@
 //! Recordings of a session in MCAP (the robotics log format: `mcap` tools, Foxglove): the
-//! scene spec, then every frame and reply as the exact bytes they have on the wire.
+//! scene spec, then every reply as the exact bytes it has on the wire, and every frame as its
+//! wire header and the floats that changed since the frame recorded before it (a key frame with
+//! all of them every [`KEY_EVERY`] frames). A colonoscopy frame moves the scope and a few wall
+//! tips: this keeps a recording to a few kilobytes a frame instead of the whole colon, so the
+//! recorder keeps up with an unpaced physics. Reading restores each frame's exact bytes.
 //!
 //! - [`Writer`]: what `lumen record` writes through (one frame / reply at a time).
 //! - [`Recording`]: a recording read back and checked ([`Recording::open`]), its replies by
@@ -11,7 +15,7 @@
 //! | topic | message encoding | schema | message |
 //! |---|---|---|---|
 //! | `/lumen/spec` | `json` | `jsonschema` | the [`SceneSpec`], once, first |
-//! | `/lumen/frames` | `lumen-repr-c` | `lumen.Frame` (text) | `FrameHeader` (40 bytes) + `floats` x f32 |
+//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta (`u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
 //! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
 //! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
 //!
@@ -37,9 +41,17 @@ pub const FRAMES_TOPIC: &str = "/lumen/frames";
 pub const CONTACTS_TOPIC: &str = "/lumen/contacts";
 /// Topic of the counts written on finishing (JSON, one message, last).
 pub const SUMMARY_TOPIC: &str = "/lumen/summary";
-/// Message and schema encoding of frames and replies: the `#[repr(C)]` little-endian bytes of
+/// Message and schema encoding of replies: the `#[repr(C)]` little-endian bytes of
 /// `proto/README.md`.
 pub const WIRE_ENCODING: &str = "lumen-repr-c";
+/// Message encoding of frames: the wire header, then the floats whole or as changed runs.
+pub const FRAME_ENCODING: &str = "lumen-frame-delta";
+/// A key frame (every float) at least this often, so a damaged message costs at most this many
+/// frames and a reader can start at any key frame.
+pub const KEY_EVERY: u64 = 256;
+/// Unchanged floats a run of changes may span rather than end: a run costs 8 bytes of start and
+/// length, two floats.
+const RUN_GAP: usize = 2;
 /// The MCAP header's profile.
 pub const PROFILE: &str = "lumen";
 /// Name of the metadata record holding the spec and session, written first.
@@ -49,11 +61,14 @@ pub const SUMMARY_METADATA: &str = "lumen.summary";
 
 /// Schema text of [`FRAMES_TOPIC`]: the byte layout, for people and tools that list schemas.
 pub const FRAME_SCHEMA: &str = "\
-lumen.Frame v1, little-endian, the bytes of proto/README.md section 2:
+lumen.Frame v2, little-endian: the frame of proto/README.md section 2, its floats delta-coded.
 FrameHeader (40 bytes): 0 u32 magic 'LMNF' | 4 u16 version | 6 u16 flags | 8 u64 session |
 16 u64 frame | 24 u64 client_time_ns | 32 u32 floats | 36 u32 bodies
-then floats x f32: every body's state in spec order (tube: per ring its control point x y z
-then its radial vectors x y z; rod: x y z per point), millimetres.
+then u32 kind: 0 = key frame, followed by floats x f32: every body's state in spec order (tube:
+per ring its control point x y z then its radial vectors x y z; rod: x y z per point), mm;
+1 = delta, followed by u32 runs, then per run u32 start, u32 len, len x f32: the floats
+[start, start + len) that differ (bit for bit) from the message before on this topic; the
+others are as there. The first message is a key frame, and one comes at least every 256.
 ";
 
 /// Schema text of [`CONTACTS_TOPIC`].
@@ -128,6 +143,9 @@ pub struct Writer {
     sequence: u32,
     written: Written,
     buf: Vec<u8>,
+    /// The last recorded frame's floats (as bits), what the next delta is against.
+    last: Vec<u32>,
+    since_key: u64,
 }
 
 impl Writer {
@@ -156,21 +174,44 @@ impl Writer {
         let spec_channel = mcap.add_channel(spec_schema, SPEC_TOPIC, "json", &channel_meta).map_err(wr)?;
         let summary_schema = mcap.add_schema("lumen.Summary", "jsonschema", SUMMARY_JSON_SCHEMA.as_bytes()).map_err(wr)?;
         let summary_channel = mcap.add_channel(summary_schema, SUMMARY_TOPIC, "json", &none).map_err(wr)?;
-        let frame_schema = mcap.add_schema("lumen.Frame", WIRE_ENCODING, FRAME_SCHEMA.as_bytes()).map_err(wr)?;
-        let frames_channel = mcap.add_channel(frame_schema, FRAMES_TOPIC, WIRE_ENCODING, &none).map_err(wr)?;
+        let frame_schema = mcap.add_schema("lumen.Frame", FRAME_ENCODING, FRAME_SCHEMA.as_bytes()).map_err(wr)?;
+        let frames_channel = mcap.add_channel(frame_schema, FRAMES_TOPIC, FRAME_ENCODING, &none).map_err(wr)?;
         let contacts_schema = mcap.add_schema("lumen.Contacts", WIRE_ENCODING, CONTACTS_SCHEMA.as_bytes()).map_err(wr)?;
         let contacts_channel = mcap.add_channel(contacts_schema, CONTACTS_TOPIC, WIRE_ENCODING, &none).map_err(wr)?;
         // The spec message is stamped 0: it holds before every frame, whatever the client's clock.
         let now = wall_ns();
         mcap.write_to_known_channel(&MessageHeader { channel_id: spec_channel, sequence: 0, log_time: 0, publish_time: now }, spec_json.as_bytes()).map_err(wr)?;
-        Ok(Self { path: path.to_owned(), mcap, frames_channel, contacts_channel, summary_channel, last_log_time: 0, sequence: 1, written: Written::default(), buf: Vec::new() })
+        Ok(Self {
+            path: path.to_owned(),
+            mcap,
+            frames_channel,
+            contacts_channel,
+            summary_channel,
+            last_log_time: 0,
+            sequence: 1,
+            written: Written::default(),
+            buf: Vec::new(),
+            last: Vec::new(),
+            since_key: 0,
+        })
     }
 
     /// Appends one frame as it was on the wire; `receive_ns` is when the recorder got it
     /// (nanoseconds since the Unix epoch, see [`wall_ns`]).
     pub fn frame(&mut self, header: &FrameHeader, state: &[f32], receive_ns: u64) -> Result<(), RecordingError> {
         self.buf.clear();
-        wire::encode_frame(header, state, &mut self.buf);
+        self.buf.extend_from_slice(&header.to_bytes());
+        let key = self.last.len() != state.len() || self.since_key + 1 >= KEY_EVERY;
+        if key {
+            self.buf.extend_from_slice(&0u32.to_le_bytes());
+            self.last.clear();
+            self.last.extend(state.iter().map(|v| v.to_bits()));
+            state.iter().for_each(|v| self.buf.extend_from_slice(&v.to_le_bytes()));
+            self.since_key = 0;
+        } else {
+            encode_delta(&mut self.last, state, &mut self.buf);
+            self.since_key += 1;
+        }
         self.put(self.frames_channel, header.client_time_ns, receive_ns)?;
         self.written.frames += 1;
         Ok(())
@@ -271,7 +312,7 @@ impl Recording {
         let mut spec: Option<SceneSpec> = None;
         let (mut frames, mut replies) = (0u64, HashMap::new());
         let (mut session, mut missed) = (0u64, None);
-        let mut decoded = Vec::new();
+        let (mut decoded, mut state) = (Vec::new(), Vec::new());
         for message in messages(path)? {
             let m = message?;
             match m.channel.topic.as_str() {
@@ -286,7 +327,7 @@ impl Recording {
                     missed = Some(Missed { frames: get("missed_frames"), replies: get("missed_replies") });
                 }
                 FRAMES_TOPIC => {
-                    decode_frame(&m.data).map_err(|e| not_lumen(format!("frame message {} (sequence {}): {e}", frames, m.sequence)))?;
+                    decode_frame(&m.data, &mut state).map_err(|e| not_lumen(format!("frame message {} (sequence {}): {e}", frames, m.sequence)))?;
                     frames += 1;
                 }
                 CONTACTS_TOPIC => {
@@ -303,11 +344,12 @@ impl Recording {
     /// The frames in file order, read one at a time.
     pub fn frames(&self) -> Result<impl Iterator<Item = Result<RecordedFrame, RecordingError>>, RecordingError> {
         let path = self.path.clone();
+        let mut state = Vec::new();
         Ok(messages(&self.path)?.filter_map(move |m| match m {
             Err(e) => Some(Err(e)),
             Ok(m) if m.channel.topic == FRAMES_TOPIC => Some(
-                decode_frame(&m.data)
-                    .map(|(header, state)| RecordedFrame { header, state, log_time_ns: m.log_time })
+                decode_frame(&m.data, &mut state)
+                    .map(|header| RecordedFrame { header, state: state.clone(), log_time_ns: m.log_time })
                     .map_err(|e| RecordingError::NotLumen { path: path.clone(), what: format!("frame message (sequence {}): {e}", m.sequence) }),
             ),
             Ok(_) => None,
@@ -342,13 +384,84 @@ fn is_short_or_not_mcap(path: &Path) -> bool {
     }
 }
 
-fn decode_frame(bytes: &[u8]) -> Result<(FrameHeader, Vec<f32>), String> {
-    let header = FrameHeader::read(bytes).map_err(|e| e.to_string())?;
-    let body = &bytes[wire::FRAME_HEADER_BYTES..];
-    if !body.len().is_multiple_of(4) {
-        return Err(format!("payload of {} bytes is not a whole number of floats", body.len()));
+/// Appends `1`, the run count and the runs of `state` that differ from `last` (bit for bit),
+/// and makes `last` equal to `state`.
+fn encode_delta(last: &mut [u32], state: &[f32], out: &mut Vec<u8>) {
+    out.extend_from_slice(&1u32.to_le_bytes());
+    let count_at = out.len();
+    out.extend_from_slice(&0u32.to_le_bytes());
+    let (mut runs, mut i, n) = (0u32, 0usize, state.len());
+    while i < n {
+        if last[i] == state[i].to_bits() {
+            i += 1;
+            continue;
+        }
+        // A run from i to the last change with at most RUN_GAP unchanged floats between changes.
+        let (start, mut end, mut j) = (i, i + 1, i + 1);
+        while j < n && j <= end + RUN_GAP {
+            if last[j] != state[j].to_bits() {
+                end = j + 1;
+            }
+            j += 1;
+        }
+        out.extend_from_slice(&(start as u32).to_le_bytes());
+        out.extend_from_slice(&((end - start) as u32).to_le_bytes());
+        for k in start..end {
+            out.extend_from_slice(&state[k].to_le_bytes());
+            last[k] = state[k].to_bits();
+        }
+        runs += 1;
+        i = end;
     }
-    Ok((header, body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()))
+    out[count_at..count_at + 4].copy_from_slice(&runs.to_le_bytes());
+}
+
+/// Decodes a frame message into its header and `state` (which holds the frame decoded before
+/// it on the topic, and becomes this one's floats).
+fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, String> {
+    let header = FrameHeader::read(bytes).map_err(|e| e.to_string())?;
+    let mut r = Words(&bytes[wire::FRAME_HEADER_BYTES..]);
+    let floats = header.floats as usize;
+    match r.u32()? {
+        0 => {
+            let body = r.0;
+            if body.len() != 4 * floats {
+                return Err(format!("key frame of {} bytes for {floats} floats", body.len()));
+            }
+            state.clear();
+            state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+        }
+        1 => {
+            if state.len() != floats {
+                return Err(format!("a delta for {floats} floats after a frame of {} (no key frame before it)", state.len()));
+            }
+            for _ in 0..r.u32()? {
+                let (start, len) = (r.u32()? as usize, r.u32()? as usize);
+                if start.checked_add(len).is_none_or(|end| end > floats) {
+                    return Err(format!("a run of {len} floats at {start}, beyond the frame's {floats}"));
+                }
+                for v in &mut state[start..start + len] {
+                    *v = f32::from_bits(r.u32()?);
+                }
+            }
+            if !r.0.is_empty() {
+                return Err(format!("{} bytes after the last run", r.0.len()));
+            }
+        }
+        k => return Err(format!("unknown frame kind {k} (0 key, 1 delta)")),
+    }
+    Ok(header)
+}
+
+/// Little-endian `u32`s read off the front of a byte slice.
+struct Words<'a>(&'a [u8]);
+
+impl Words<'_> {
+    fn u32(&mut self) -> Result<u32, String> {
+        let (w, rest) = self.0.split_first_chunk::<4>().ok_or("the message ends inside a word")?;
+        self.0 = rest;
+        Ok(u32::from_le_bytes(*w))
+    }
 }
 
 /// `Ok(())` if a reply equals the recorded one bit for bit in everything the frame determines
@@ -381,4 +494,78 @@ pub fn compare_replies(got: (&ContactsHeader, &[Contact]), recorded: &RecordedRe
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(frame: u64, floats: usize) -> FrameHeader {
+        FrameHeader::new(7, frame, 0, floats, 1)
+    }
+
+    fn message(h: &FrameHeader, last: &mut Vec<u32>, state: &[f32], key: bool) -> Vec<u8> {
+        let mut out = h.to_bytes().to_vec();
+        if key {
+            out.extend_from_slice(&0u32.to_le_bytes());
+            state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+            *last = state.iter().map(|v| v.to_bits()).collect();
+        } else {
+            encode_delta(last, state, &mut out);
+        }
+        out
+    }
+
+    #[test]
+    fn deltas_restore_every_bit_and_stay_small() {
+        // Sparse changes, runs at both ends, a gap of one unchanged float inside a run, and
+        // values only bits tell apart (NaN payloads, -0.0).
+        let mut state: Vec<f32> = (0..1000).map(|i| i as f32 * 0.5).collect();
+        let mut last = Vec::new();
+        let mut decoded = Vec::new();
+        let key = message(&header(0, 1000), &mut last, &state, true);
+        decode_frame(&key, &mut decoded).unwrap();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&decoded), bits(&state));
+        for f in 1..20u64 {
+            state[0] = f as f32;
+            state[999] = -0.0;
+            state[500] = f32::from_bits(0x7fc0_0000 | f as u32);
+            state[502] = f as f32 * 3.0;
+            state[(f as usize * 37) % 1000] += 1.0;
+            let m = message(&header(f, 1000), &mut last, &state, false);
+            assert!(m.len() < wire::FRAME_HEADER_BYTES + 8 + 8 * 5 + 4 * 12, "{} bytes", m.len());
+            let h = decode_frame(&m, &mut decoded).unwrap();
+            assert_eq!(h.frame, f);
+            assert_eq!(bits(&decoded), bits(&state), "frame {f}");
+        }
+        // An unchanged frame is a delta of no runs.
+        let m = message(&header(20, 1000), &mut last, &state, false);
+        assert_eq!(m.len(), wire::FRAME_HEADER_BYTES + 8);
+    }
+
+    #[test]
+    fn broken_frame_messages_are_named() {
+        let state = vec![1.0f32; 10];
+        let mut last = Vec::new();
+        let key = message(&header(0, 10), &mut last, &state, true);
+        let mut decoded = Vec::new();
+        // A delta with nothing before it.
+        let mut delta = header(1, 10).to_bytes().to_vec();
+        delta.extend_from_slice(&1u32.to_le_bytes());
+        delta.extend_from_slice(&0u32.to_le_bytes());
+        assert!(decode_frame(&delta, &mut decoded).unwrap_err().contains("no key frame"));
+        decode_frame(&key, &mut decoded).unwrap();
+        // A run beyond the frame, a cut message, an unknown kind, a short key frame.
+        let mut beyond = header(1, 10).to_bytes().to_vec();
+        for w in [1u32, 1, 8, 3, 0, 0, 0] {
+            beyond.extend_from_slice(&w.to_le_bytes());
+        }
+        assert!(decode_frame(&beyond, &mut decoded).unwrap_err().contains("beyond"));
+        assert!(decode_frame(&beyond[..beyond.len() - 2], &mut decoded).is_err());
+        let mut kind = header(1, 10).to_bytes().to_vec();
+        kind.extend_from_slice(&9u32.to_le_bytes());
+        assert!(decode_frame(&kind, &mut decoded).unwrap_err().contains("unknown frame kind 9"));
+        assert!(decode_frame(&key[..key.len() - 4], &mut decoded).unwrap_err().contains("key frame"));
+    }
 }
