@@ -27,6 +27,8 @@ pub struct IpcRun {
     pub echo_p50_us: f64,
     /// Median detection time reported by the daemon.
     pub detect_us: f64,
+    /// p99 of the detection time: how much of the round trip's p99 detection alone explains.
+    pub detect_p99_us: f64,
     /// Daemon-side p50 from seeing the frame to having sent the reply (detection included):
     /// what the round trip adds beyond this is transport and wake-ups.
     pub daemon_p50_us: f64,
@@ -57,10 +59,10 @@ impl IpcReport {
             self.cores,
             if self.quick { ", --quick" } else { "" }
         );
-        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | detect | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | detect | detect p99 | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for r in &self.runs {
             s += &format!(
-                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
+                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
                 r.transport,
                 r.mode,
                 r.p50_us,
@@ -68,6 +70,7 @@ impl IpcReport {
                 r.p999_us,
                 r.echo_p50_us,
                 r.detect_us,
+                r.detect_p99_us,
                 r.daemon_p50_us,
                 r.p50_us - r.echo_p50_us - r.detect_us,
                 r.frames,
@@ -269,6 +272,7 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
         p999_us: quantile_us(&mut det.rtt_ns, 0.999),
         echo_p50_us: quantile_us(&mut echo.rtt_ns, 0.5),
         detect_us: quantile_us(&mut det.detect_ns, 0.5),
+        detect_p99_us: quantile_us(&mut det.detect_ns, 0.99),
         daemon_p50_us: det.daemon_p50_us.iter().sum::<f64>() / det.daemon_p50_us.len().max(1) as f64,
         frames: det.rtt_ns.len() as u64 + det.lost,
         lost_frames: det.lost,
