@@ -93,6 +93,8 @@ pub struct IpcBench {
     quick: bool,
     /// Use the analytic stand-in instead of lumen-scene's generated colonoscopy.
     pub stand_in: bool,
+    /// Frames per measurement instead of 1,500 (`--quick`) or 10,000.
+    pub frames: Option<usize>,
     transports: Vec<Transport>,
     prefix: String,
     endpoint: String,
@@ -184,7 +186,7 @@ impl IpcBench {
             Some(o) => return Err(format!("unknown transport {o:?}: use iceoryx2 or zenoh")),
         };
         let prefix = format!("lumen_bench_{}_", std::process::id());
-        Ok(Self { quick, stand_in: false, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
+        Ok(Self { quick, stand_in: false, frames: None, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
     }
 
     fn client(&self, t: Transport) -> Result<Client, ClientError> {
@@ -207,7 +209,8 @@ impl IpcBench {
             format!("lumen-scene generated colonoscopy (seed 1): colon {} rings x 32 spokes, scope of 160 points inserted 1 mm per frame", spec.bodies[0].points())
         };
         let states = Arc::new(states);
-        let (b2b, paced) = if self.quick { (1500, 1500) } else { (10_000, 10_000) };
+        let n = self.frames.unwrap_or(if self.quick { 1500 } else { 10_000 });
+        let (b2b, paced) = (n, n);
         let mut runs = Vec::new();
         let bar = indicatif::ProgressBar::new((self.transports.len() * 6) as u64);
         bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("template"));
@@ -248,7 +251,7 @@ impl IpcBench {
                 let (spec, states) = (spec.clone(), states.clone());
                 let (prefix, endpoint) = (self.prefix.clone(), self.endpoint.clone());
                 std::thread::spawn(move || -> Result<Samples, String> {
-                    let me = IpcBench { quick: true, stand_in: false, transports: vec![], prefix, endpoint };
+                    let me = IpcBench { quick: true, stand_in: false, frames: None, transports: vec![], prefix, endpoint };
                     let client = me.client(t).map_err(|e| e.to_string())?;
                     std::thread::sleep(start.saturating_duration_since(Instant::now()));
                     measure(&client, &spec, &states, Mode::Paced1kHz, frames, echo).map_err(|e| e.to_string())

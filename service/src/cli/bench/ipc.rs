@@ -19,11 +19,15 @@ pub struct IpcArgs {
     /// Use the analytic colon-sized stand-in instead of lumen-scene's generated colonoscopy.
     #[arg(long)]
     pub stand_in: bool,
+    /// Frames per measurement (default 1,500 with --quick, else 10,000; at least 10).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(10..))]
+    pub frames: Option<u32>,
 }
 
 pub fn run(args: IpcArgs) -> CliResult {
     let mut bench = IpcBench::new(args.quick, args.only.as_deref())?;
     bench.stand_in = args.stand_in;
+    bench.frames = args.frames.map(|n| n as usize);
     let report: IpcReport = bench.run()?;
     std::fs::create_dir_all(&args.out)?;
     std::fs::write(args.out.join("ipc.json"), serde_json::to_string_pretty(&report)?)?;

@@ -1,0 +1,35 @@
+//! `lumen bench ipc`, run as a process on a few frames: the daemon it starts answers every
+//! frame over iceoryx2, and `ipc.json` / `ipc.md` hold the figures the issue names, coherent
+//! with each other, and nothing is left in /dev/shm.
+
+use std::path::Path;
+use std::process::Command;
+
+const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
+
+#[test]
+fn a_short_ipc_benchmark_writes_coherent_figures() {
+    let out = std::env::temp_dir().join(format!("lumen-bench-ipc-{}", std::process::id()));
+    let run = Command::new(LUMEN).args(["bench", "ipc", "--only", "iceoryx2", "--frames", "60", "--out"]).arg(&out).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ipc.json")).unwrap()).unwrap();
+    let runs = json["runs"].as_array().unwrap();
+    let modes: Vec<&str> = runs.iter().map(|r| r["mode"].as_str().unwrap()).collect();
+    assert_eq!(modes, ["back-to-back", "paced-1khz", "4-sessions"]);
+    for r in runs {
+        let f = |k: &str| r[k].as_f64().unwrap_or_else(|| panic!("{k} in {r}"));
+        assert_eq!(r["transport"], "iceoryx2");
+        assert_eq!(f("lost_frames"), 0.0, "{r}");
+        // 4 sessions of half the frames each.
+        assert_eq!(f("frames"), if r["mode"] == "4-sessions" { 120.0 } else { 60.0 }, "{r}");
+        assert!(0.0 < f("p50_us") && f("p50_us") <= f("p99_us") && f("p99_us") <= f("p999_us"), "{r}");
+        assert!(0.0 < f("detect_us") && f("detect_us") <= f("detect_p99_us"), "{r}");
+        // The echo answers the same frames without detecting: faster than a detected round trip.
+        assert!(f("echo_p50_us") < f("p50_us"), "{r}");
+    }
+    let md = std::fs::read_to_string(out.join("ipc.md")).unwrap();
+    assert!(md.contains("| iceoryx2 | paced-1khz |"), "{md}");
+    let _ = std::fs::remove_dir_all(&out);
+    let left: Vec<_> = std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("lumen_bench_")).collect()).unwrap_or_default();
+    assert!(left.is_empty(), "left in /dev/shm: {left:?}");
+}
