@@ -361,3 +361,41 @@ fn async_replies_match_the_blocking_ones_and_time_out() {
         assert!(matches!(quiet, Err(Error::Timeout(_))), "{:?}", quiet.map(|r| r.frame()));
     });
 }
+
+#[test]
+fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
+    // As over zenoh: a session closed from elsewhere takes its contacts publisher with it, so
+    // the client says `Disconnected` instead of timing out for ever, and reopens on the next
+    // frame; blocking and async alike.
+    let prefix = unique_prefix("reopen");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let (mine, other) = (client(&prefix), client(&prefix));
+    let mut s = mine.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec).unwrap();
+    let round_trip = |s: &mut lumen_client::Session, k: u64| {
+        s.frame().unwrap().copy_from_slice(&scene.state(k));
+        s.submit().unwrap();
+        s.contacts(WAIT).map(|r| r.contacts().to_vec())
+    };
+    let close = |session: u64| {
+        assert!(matches!(other.request(&lumen_proto::session::ControlRequest::Close { session }), Ok(lumen_proto::session::ControlReply::Closed { .. })));
+        assert!(eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
+    };
+    assert!(same_bits(&round_trip(&mut s, 0).unwrap(), reference.detect(&scene.state(0)).unwrap()));
+    close(s.id());
+    let lost = round_trip(&mut s, 1).map(|_| ()).unwrap_err();
+    assert!(matches!(lost, Error::Disconnected), "{lost:?}");
+    let again = (0..5).find_map(|_| round_trip(&mut s, 1).ok()).expect("answered after reopening");
+    assert!(same_bits(&again, reference.detect(&scene.state(1)).unwrap()));
+    assert_eq!(s.reconnects(), 1);
+    close(s.id());
+    s.frame().unwrap().copy_from_slice(&scene.state(2));
+    s.submit().unwrap();
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+    let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();
+    assert!(matches!(lost, Error::Disconnected), "{lost:?}");
+    let again = (0..5).find_map(|_| round_trip(&mut s, 2).ok()).expect("answered after reopening");
+    assert!(same_bits(&again, reference.detect(&scene.state(2)).unwrap()));
+    assert_eq!(s.reconnects(), 2);
+}
