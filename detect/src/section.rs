@@ -175,9 +175,9 @@ impl TubeCache {
         Ring { n, o, size }
     }
 
-    /// Signed distance of `p` to ring `i`'s plane (positive on the side the midline goes on).
+    /// Signed distance of `p` to ring `i`'s plane.
     #[inline]
-    pub fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
+    fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
         let r = self.ring(t, i);
         (p - t.point(i)).dot(&r.n)
     }

@@ -88,26 +88,21 @@ fn chord_distance2(t: &TubeView, i: usize, p: &V3) -> (f32, f32) {
     ((a + ab * u - p).norm_squared(), u)
 }
 
-/// The segments whose boxes hold `p` (the first `hits.len()` of them), into `hits`; returns
-/// how many.
-fn boxes_holding(tree: &ChainBvh, p: &V3, hits: &mut [usize; 16]) -> usize {
-    let mut n = 0;
-    tree.query(&Aabb { min: *p, max: *p }, |i| {
-        if n < hits.len() {
-            hits[n] = i;
-            n += 1;
-        }
-    });
-    n
-}
-
 /// Locates `p` without history: the most-inside segment whose box holds it, else the nearest
 /// midline chord. Returns the axial position (`BeforeStart` / `AfterEnd` beyond the ends).
 pub fn reacquire(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3, refine: u32, counters: &mut Counters) -> Axial {
     counters.reacquired += 1;
+    let tree = bvh.ensure(t, cache);
     let mut best: Option<(f32, usize, f32)> = None;
+    let q = Aabb { min: *p, max: *p };
     let mut hits = [0usize; 16];
-    let nh = boxes_holding(bvh.ensure(t, cache), p, &mut hits);
+    let mut nh = 0;
+    tree.query(&q, |i| {
+        if nh < hits.len() {
+            hits[nh] = i;
+            nh += 1;
+        }
+    });
     counters.candidates += nh as u32;
     for &i in &hits[..nh] {
         if let Axial::In { seg, u } = cache.axial(t, p, i, 0) {
@@ -148,17 +143,14 @@ fn second_opinion(t: &TubeView, cache: &mut TubeCache, p: &V3, first: Gap, refin
     let lo = first.seg.saturating_sub(FOLD_REACH);
     let hi = (first.seg + FOLD_REACH).min(t.segments() - 1);
     let mut best = first;
-    let mut d0 = cache.plane(t, lo, p);
-    for i in lo..=hi {
-        let d1 = cache.plane(t, i + 1, p);
-        if i != first.seg && d0 >= 0.0 && d1 <= 0.0 {
-            let u = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 0.0 };
-            let g = cache.gap(t, p, i, u, None, refine);
+    for i in (lo..=hi).filter(|&i| i != first.seg) {
+        // A walk of no step: `In` exactly when segment i's planes bracket the point.
+        if let Axial::In { seg, u } = cache.axial(t, p, i, 0) {
+            let g = cache.gap(t, p, seg, u, None, refine);
             if g.sd < best.sd {
                 best = g;
             }
         }
-        d0 = d1;
     }
     best
 }
