@@ -2,6 +2,11 @@
 
 use crate::Error;
 use lumen_proto::session::ControlReply;
+use std::time::Duration;
+
+/// How long a session waits for the daemon's answer when it reopens or asks whether it still
+/// exists: short, since the caller's frame waits on it.
+pub(crate) const CONTROL_WAIT: Duration = Duration::from_millis(300);
 
 /// Parses a control reply (errors are returned as replies; the caller decides).
 pub(crate) fn parse_reply(bytes: &[u8]) -> Result<ControlReply, Error> {

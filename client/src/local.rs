@@ -3,7 +3,7 @@
 //! The daemon creates every session's services (sized from the spec); clients and observers
 //! open them. The QoS and channel helpers here are shared with the daemon so both sides agree.
 
-use crate::control::parse_reply;
+use crate::control::{parse_reply, CONTROL_WAIT};
 use crate::view::ContactsView;
 use crate::{now_ns, Error};
 use iceoryx2::port::listener::Listener;
@@ -208,7 +208,7 @@ impl LocalSession {
     /// Reopens the session after the daemon went away, if one answers now.
     fn ensure_open(&mut self) -> Result<&SessionPorts, Error> {
         if self.ports.is_none() {
-            let reply = self.control.request(&self.request, Duration::from_millis(300)).map_err(|_| Error::Disconnected)?;
+            let reply = self.control.request(&self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
             let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
             let ports = SessionPorts::attach(&self.control.node, &info)?;
             self.layout = info.layout();

@@ -1,7 +1,7 @@
 //! The zenoh transport: the same frames and replies as bytes over TCP (or TLS), for clients on
 //! other machines.
 
-use crate::control::{parse_reply, unexpected};
+use crate::control::{parse_reply, unexpected, CONTROL_WAIT};
 use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::session::{client_alive_name, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, CONTROL, DAEMON_ALIVE};
@@ -80,6 +80,11 @@ async fn request_on_async(session: &zenoh::Session, endpoint: &str, request: &Co
     let json = serde_json::to_vec(request).expect("control requests serialise");
     let replies = session.get(CONTROL).payload(json).timeout(timeout).await.map_err(|e| Error::zenoh("sending a control request", e))?;
     read_reply(replies.recv_async().await.ok(), endpoint, timeout)
+}
+
+/// Whether a control reply says the session asked about does not exist.
+fn unknown_session(reply: Result<ControlReply, Error>) -> bool {
+    matches!(reply, Ok(ControlReply::Error(e)) if e.code == ErrorCode::UnknownSession)
 }
 
 fn read_reply(reply: Option<zenoh::query::Reply>, endpoint: &str, timeout: Duration) -> Result<ControlReply, Error> {
@@ -171,8 +176,16 @@ impl ZenohSession {
     /// reaches it; its frames then go unanswered. Only a definite "unknown session" counts: a
     /// daemon that does not answer may just be busy, and its token says when it is gone.
     fn session_gone(&self) -> bool {
-        let ask = ControlRequest::Describe { session: self.info.session };
-        matches!(request_on(&self.z, &self.endpoint, &ask, Duration::from_millis(300)), Ok(ControlReply::Error(e)) if e.code == ErrorCode::UnknownSession)
+        unknown_session(request_on(&self.z, &self.endpoint, &self.describe(), CONTROL_WAIT))
+    }
+
+    /// [`ZenohSession::session_gone`] for async code.
+    async fn session_gone_async(&self) -> bool {
+        unknown_session(request_on_async(&self.z, &self.endpoint, &self.describe(), CONTROL_WAIT).await)
+    }
+
+    fn describe(&self) -> ControlRequest {
+        ControlRequest::Describe { session: self.info.session }
     }
 
     fn ensure_open(&mut self) -> Result<(), Error> {
@@ -180,7 +193,7 @@ impl ZenohSession {
             self.channels = None;
         }
         if self.channels.is_none() {
-            let reply = request_on(&self.z, &self.endpoint, &self.request, Duration::from_millis(300)).map_err(|_| Error::Disconnected)?;
+            let reply = request_on(&self.z, &self.endpoint, &self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
             let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
             self.channels = Some(Channels::declare(&self.z, &info)?);
             self.layout = info.layout();
@@ -258,10 +271,7 @@ impl ZenohSession {
             Ok(Err(e)) => Err(Error::zenoh("receiving contacts", e)),
             Err(_) => {
                 // As `contacts`: a daemon that left, or no longer has the session, is `Disconnected`.
-                let ask = ControlRequest::Describe { session: self.info.session };
-                let gone = self.daemon_left()
-                    || matches!(request_on_async(&self.z, &self.endpoint, &ask, Duration::from_millis(300)).await, Ok(ControlReply::Error(e)) if e.code == ErrorCode::UnknownSession);
-                if gone {
+                if self.daemon_left() || self.session_gone_async().await {
                     self.channels = None;
                     return Err(Error::Disconnected);
                 }
