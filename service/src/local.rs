@@ -137,7 +137,7 @@ impl Local {
 /// Starts a session's thread; the inner result says whether its channels were created.
 fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
     let id = plan.entry.info.session;
-    crate::registry::spawn_session(crate::registry::thread_name("iox2-s", id), id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
+    crate::registry::spawn_session("iox2-s", id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
 }
 
 /// A session's services and ports.

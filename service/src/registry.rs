@@ -135,17 +135,17 @@ pub fn thread_name(kind: &str, id: u64) -> String {
     format!("{kind}{low:0width$}", width = digits as usize)
 }
 
-/// Runs session `id` on its own thread named `name`: `run` gets a sender on which it reports
-/// whether its channels were created, and returns why the session ended. The session leaves
-/// the registry whatever happens. Returns the thread and that first report (an error if the
-/// thread did not report within 10 s).
-pub fn spawn_session<F>(name: String, id: u64, registry: Arc<Registry>, run: F) -> Result<(std::thread::JoinHandle<()>, Result<(), String>), String>
+/// Runs session `id` on its own thread, named [`thread_name`]`(kind, id)`: `run` gets a sender
+/// on which it reports whether its channels were created, and returns why the session ended.
+/// The session leaves the registry whatever happens. Returns the thread and that first report
+/// (an error if the thread did not report within 10 s).
+pub fn spawn_session<F>(kind: &str, id: u64, registry: Arc<Registry>, run: F) -> Result<(std::thread::JoinHandle<()>, Result<(), String>), String>
 where
     F: FnOnce(&Registry, &std::sync::mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> + Send + 'static,
 {
     let (tx, rx) = std::sync::mpsc::channel();
     let handle = std::thread::Builder::new()
-        .name(name)
+        .name(thread_name(kind, id))
         .spawn(move || {
             let result = run(&registry, &tx);
             registry.remove(id);

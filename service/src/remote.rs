@@ -95,7 +95,7 @@ impl Remote {
 /// Starts a session's thread; the inner result says whether its channels were created.
 fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
     let id = plan.entry.info.session;
-    crate::registry::spawn_session(crate::registry::thread_name("zenoh-s", id), id, registry, move |registry, tx| run_session(&z, plan, registry, tx))
+    crate::registry::spawn_session("zenoh-s", id, registry, move |registry, tx| run_session(&z, plan, registry, tx))
 }
 
 fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
