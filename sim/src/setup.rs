@@ -38,8 +38,8 @@ pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, String> {
     gca_colon_inflated(dir, GCA_INFLATE)
 }
 
-/// The GCA colon's default inflation (the scan is not insufflated).
-pub const GCA_INFLATE: f32 = 2.0;
+/// The GCA colon's default inflation (the scan is not insufflated): [`ImportParams::gca`]'s.
+pub use lumen_scene::import::GCA_INFLATE;
 
 /// [`gca_colon`] with another inflation factor.
 pub fn gca_colon_inflated(dir: Option<&Path>, inflate: f32) -> Result<Tube, String> {

@@ -40,8 +40,8 @@ pub struct DemoArgs {
     /// iceoryx2 prefix of the run (default: lumen_demo_<pid>_, which nothing else uses).
     #[arg(long)]
     pub prefix: Option<String>,
-    /// Do not record the run (a recording holds every frame: about 0.5 MB per frame on the
-    /// full colon).
+    /// Do not record the run (a recording holds every frame, as what changed since the one
+    /// before: about 100 KB per frame for the scripted colonoscopy).
     #[arg(long)]
     pub no_record: bool,
 }

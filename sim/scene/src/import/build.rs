@@ -53,12 +53,15 @@ impl ImportParams {
     }
 
     /// Lumen's parameters for the GCA colon (EdinGCA_3D_00090), used by the `gca` scene
-    /// everywhere: 32 spokes every 1 mm, inflated twice, tangents smoothed with sigma
-    /// [`GCA_TANGENT_SMOOTHING_MM`].
+    /// everywhere: 32 spokes every 1 mm, inflated [`GCA_INFLATE`] times, tangents smoothed with
+    /// sigma [`GCA_TANGENT_SMOOTHING_MM`].
     pub fn gca() -> Self {
-        Self { spokes: 32, ring_spacing: 1.0, inflate: 2.0, tangent_smoothing_mm: GCA_TANGENT_SMOOTHING_MM, ..Self::default() }
+        Self { spokes: 32, ring_spacing: 1.0, inflate: GCA_INFLATE, tangent_smoothing_mm: GCA_TANGENT_SMOOTHING_MM, ..Self::default() }
     }
 }
+
+/// Inflation of the GCA colon: its CT lumen is collapsed, a colonoscopy's is insufflated.
+pub const GCA_INFLATE: f32 = 2.0;
 
 /// Tangent smoothing (sigma, mm) of the GCA colon's ring planes.
 ///

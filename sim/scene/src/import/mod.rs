@@ -32,7 +32,7 @@ mod build;
 mod centerline;
 mod mesh;
 
-pub use build::{build_tube, ImportParams, ImportReport, GCA_TANGENT_SMOOTHING_MM};
+pub use build::{build_tube, ImportParams, ImportReport, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
 pub use centerline::{load_centerline_csv, parse_centerline_csv, Centerline};
 pub use mesh::{load_mesh, parse_obj, parse_stl, Mesh};
 
