@@ -263,8 +263,8 @@ fn a_killed_client_is_noticed_within_a_second_and_others_go_on() {
     let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
     let mut victim = spawn_client(&prefix);
     let mut survivor = spawn_client(&prefix);
-    let victim_id: u64 = victim.line_starting("session ", Duration::from_secs(20)).expect("victim opened").split(' ').nth(1).unwrap().parse().unwrap();
-    survivor.line_starting("session ", Duration::from_secs(20)).expect("survivor opened");
+    let victim_id: u64 = victim.session_id();
+    survivor.session_id();
     assert!(victim.line_starting("ok ", WAIT).is_some() && survivor.line_starting("ok ", WAIT).is_some());
     let status = client(&prefix);
     assert_eq!(status.status().unwrap().sessions.len(), 2);
@@ -295,7 +295,7 @@ fn a_client_killed_before_its_sessions_first_tick_is_noticed() {
     let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
     let status = client(&prefix);
     let mut victim = spawn_client(&prefix);
-    let id: u64 = victim.line_starting("session ", Duration::from_secs(20)).expect("opened").split(' ').nth(1).unwrap().parse().unwrap();
+    let id: u64 = victim.session_id();
     assert!(victim.line_starting("ok ", WAIT).is_some());
     victim.kill9();
     let killed = Instant::now();
@@ -315,7 +315,7 @@ fn daemon_killed_and_restarted_clients_resume_and_nothing_is_left() {
     let prefix = unique_prefix("k9d");
     let daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
     let mut client_proc = spawn_client(&prefix);
-    let first: u64 = client_proc.line_starting("session ", Duration::from_secs(20)).expect("opened").split(' ').nth(1).unwrap().parse().unwrap();
+    let first: u64 = client_proc.session_id();
     assert!(client_proc.line_starting("ok ", WAIT).is_some());
     let mut daemon = daemon;
     daemon.process.kill9();
@@ -373,29 +373,8 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     let (mine, other) = (client(&prefix), client(&prefix));
     let mut s = mine.open_session(&scene.spec).unwrap();
     let mut reference = Detector::new(&scene.spec).unwrap();
-    let round_trip = |s: &mut lumen_client::Session, k: u64| {
-        s.frame().unwrap().copy_from_slice(&scene.state(k));
-        s.submit().unwrap();
-        s.contacts(WAIT).map(|r| r.contacts().to_vec())
-    };
-    let close = |session: u64| {
-        assert!(matches!(other.request(&lumen_proto::session::ControlRequest::Close { session }), Ok(lumen_proto::session::ControlReply::Closed { .. })));
-        assert!(eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
-    };
-    assert!(same_bits(&round_trip(&mut s, 0).unwrap(), reference.detect(&scene.state(0)).unwrap()));
-    close(s.id());
-    let lost = round_trip(&mut s, 1).map(|_| ()).unwrap_err();
-    assert!(matches!(lost, Error::Disconnected), "{lost:?}");
-    let again = (0..5).find_map(|_| round_trip(&mut s, 1).ok()).expect("answered after reopening");
-    assert!(same_bits(&again, reference.detect(&scene.state(1)).unwrap()));
-    assert_eq!(s.reconnects(), 1);
-    close(s.id());
-    s.frame().unwrap().copy_from_slice(&scene.state(2));
+    s.frame().unwrap().copy_from_slice(&scene.state(0));
     s.submit().unwrap();
-    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
-    let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();
-    assert!(matches!(lost, Error::Disconnected), "{lost:?}");
-    let again = (0..5).find_map(|_| round_trip(&mut s, 2).ok()).expect("answered after reopening");
-    assert!(same_bits(&again, reference.detect(&scene.state(2)).unwrap()));
-    assert_eq!(s.reconnects(), 2);
+    assert!(same_bits(s.contacts(WAIT).unwrap().contacts(), reference.detect(&scene.state(0)).unwrap()));
+    lumen_e2e::closed_sessions_reopen(&mut s, &other, &scene, &mut reference);
 }

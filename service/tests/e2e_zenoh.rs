@@ -28,8 +28,8 @@ fn a_killed_zenoh_client_is_noticed_within_a_second_and_others_go_on() {
     let endpoint = d.endpoint();
     let spawn = || lumen_e2e::spawn_client_role("child_role", &[("LUMEN_E2E_ENDPOINT", endpoint.as_str())]);
     let (mut victim, mut survivor) = (spawn(), spawn());
-    let victim_id: u64 = victim.line_starting("session ", Duration::from_secs(20)).expect("victim opened").split(' ').nth(1).unwrap().parse().unwrap();
-    survivor.line_starting("session ", Duration::from_secs(20)).expect("survivor opened");
+    let victim_id: u64 = victim.session_id();
+    survivor.session_id();
     assert!(victim.line_starting("ok ", WAIT).is_some() && survivor.line_starting("ok ", WAIT).is_some());
     let status = Client::zenoh(&endpoint).unwrap();
     assert_eq!(status.status().unwrap().sessions.len(), 2);
@@ -66,28 +66,7 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     };
     let first = (0..5).find_map(|_| round_trip(&mut s, 0).ok()).expect("first frame answered");
     assert!(same_bits(&first, reference.detect(&scene.state(0)).unwrap()));
-    let old = s.id();
-    let other = Client::zenoh(&d.endpoint()).unwrap();
-    assert!(matches!(other.request(&lumen_proto::session::ControlRequest::Close { session: old }), Ok(lumen_proto::session::ControlReply::Closed { .. })));
-    assert!(lumen_e2e::eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
-    let lost = round_trip(&mut s, 1).map(|_| ()).unwrap_err();
-    assert!(matches!(lost, lumen_client::Error::Disconnected), "{lost:?}");
-    let again = (0..5).find_map(|_| round_trip(&mut s, 1).ok()).expect("answered after reopening");
-    assert!(same_bits(&again, reference.detect(&scene.state(1)).unwrap()));
-    assert_ne!(s.id(), old);
-    assert_eq!(s.reconnects(), 1);
-    // The same through `contacts_async`.
-    let second = s.id();
-    assert!(matches!(other.request(&lumen_proto::session::ControlRequest::Close { session: second }), Ok(lumen_proto::session::ControlReply::Closed { .. })));
-    assert!(lumen_e2e::eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
-    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
-    s.frame().unwrap().copy_from_slice(&scene.state(2));
-    s.submit().unwrap();
-    let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();
-    assert!(matches!(lost, lumen_client::Error::Disconnected), "{lost:?}");
-    let again = (0..5).find_map(|_| round_trip(&mut s, 2).ok()).expect("answered after reopening");
-    assert!(same_bits(&again, reference.detect(&scene.state(2)).unwrap()));
-    assert_eq!(s.reconnects(), 2);
+    lumen_e2e::closed_sessions_reopen(&mut s, &Client::zenoh(&d.endpoint()).unwrap(), &scene, &mut reference);
 }
 
 fn daemon(tag: &str) -> Daemon {

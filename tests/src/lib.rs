@@ -6,6 +6,8 @@
 //! - [`unique_prefix`], [`free_port`]: isolation between tests running at once.
 //! - [`shm_files`]: what a prefix left in `/dev/shm`.
 //! - [`TestScene`]: a small tube-and-rod scene whose rod presses into the wall, frame by frame.
+//! - [`client_loop`], [`spawn_client_role`]: client processes to kill.
+//! - [`closed_sessions_reopen`]: a session ended under its client, on either transport.
 
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use lumen_proto::{Contact, SceneSpec};
@@ -81,6 +83,12 @@ impl ChildProcess {
                 Err(_) => return None,
             }
         }
+    }
+
+    /// The session id a [`client_loop`] child prints once it has opened (within 20 s).
+    pub fn session_id(&self) -> u64 {
+        let line = self.line_starting("session ", Duration::from_secs(20)).expect("the child opened a session");
+        line["session ".len()..].trim().parse().expect("a session id")
     }
 
     /// Sends a signal.
@@ -279,4 +287,45 @@ pub fn spawn_client_role(role_test: &str, envs: &[(&str, &str)]) -> ChildProcess
         cmd.env(k, v);
     }
     ChildProcess::spawn(cmd)
+}
+
+/// Closes `s`'s session twice from `other` (a second client of the same daemon) and checks that
+/// `s` says `Disconnected` each time, not a timeout, once from `contacts` and once from
+/// `contacts_async`, and then reopens on its next frame with replies bit for bit equal to
+/// `reference`'s. `s` has been answered already; frames 1 and 2 of `scene` are used.
+pub fn closed_sessions_reopen(s: &mut lumen_client::Session, other: &lumen_client::Client, scene: &TestScene, reference: &mut lumen_detect::Detector) {
+    use lumen_client::Error;
+    use lumen_proto::session::{ControlReply, ControlRequest};
+    const WAIT: Duration = Duration::from_secs(3);
+    let close = |session: u64| {
+        assert!(matches!(other.request(&ControlRequest::Close { session }), Ok(ControlReply::Closed { .. })));
+        assert!(eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
+    };
+    let submit = |s: &mut lumen_client::Session, k: u64| {
+        s.frame().unwrap().copy_from_slice(&scene.state(k));
+        s.submit().unwrap();
+    };
+    let mut reopened = |s: &mut lumen_client::Session, k: u64, reconnects: u64| {
+        let old = s.id();
+        let again = (0..5)
+            .find_map(|_| {
+                submit(s, k);
+                s.contacts(WAIT).map(|r| r.contacts().to_vec()).ok()
+            })
+            .expect("answered after reopening");
+        assert!(same_bits(&again, reference.detect(&scene.state(k)).unwrap()));
+        assert_ne!(s.id(), old);
+        assert_eq!(s.reconnects(), reconnects);
+    };
+    close(s.id());
+    submit(s, 1);
+    let lost = s.contacts(WAIT).map(|_| ()).unwrap_err();
+    assert!(matches!(lost, Error::Disconnected), "{lost:?}");
+    reopened(s, 1, 1);
+    close(s.id());
+    submit(s, 2);
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+    let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();
+    assert!(matches!(lost, Error::Disconnected), "{lost:?}");
+    reopened(s, 2, 2);
 }
