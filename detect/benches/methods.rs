@@ -31,9 +31,16 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("frame");
     g.sample_size(40).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
     for x in [1u32, 2, 4] {
-        for (name, method, prevalidated) in [("signed", Method::Signed, true), ("signed+check", Method::Signed, false), ("thesis", Method::Thesis, false)] {
+        // `signed-section`: the default method without its nearest-wall-point step.
+        for (name, method, prevalidated, nearest) in [
+            ("signed", Method::Signed, true, true),
+            ("signed-section", Method::Signed, true, false),
+            ("signed+check", Method::Signed, false, true),
+            ("thesis", Method::Thesis, false, true),
+        ] {
             let (spec, states) = states(method, x);
             let mut d = Detector::new(&spec).unwrap();
+            d.set_nearest(nearest);
             let mut f = 0;
             // One buffer rewritten every frame, as a physics engine writes its state in place
             // (64 separate buffers would measure cold memory instead); only detection is timed.

@@ -50,6 +50,7 @@ pub struct Detector {
     contacts: Vec<Contact>,
     stats: FrameStats,
     refine: u32,
+    nearest: bool,
 }
 
 impl Detector {
@@ -66,7 +67,7 @@ impl Detector {
             })
             .collect();
         let pair_state = pairs.iter().map(|_| PairState::default()).collect();
-        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 0 })
+        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 0, nearest: true })
     }
 
     /// The scene this detector serves.
@@ -90,6 +91,14 @@ impl Detector {
     /// steeply along the tube, at the cost of one more evaluation per sample.
     pub fn set_refine(&mut self, refine: u32) {
         self.refine = refine;
+    }
+
+    /// Whether the signed method moves each contact to the nearest point of the continuous
+    /// wall ([`crate::nearest`]; default true). Off, a contact keeps the section's own foot
+    /// and the distance to the wall's tangent plane there: cheaper, and millimetres off where
+    /// the wall slopes steeply along the tube.
+    pub fn set_nearest(&mut self, on: bool) {
+        self.nearest = on;
     }
 
     /// Forgets all history: the next frame locates every sample through the BVH.
@@ -151,7 +160,7 @@ impl Detector {
         self.stats = FrameStats::default();
         let mut counters = Counters::default();
         let margin = self.spec.margin;
-        let params = SignedParams { refine: self.refine };
+        let params = SignedParams { refine: self.refine, nearest: self.nearest };
         for pi in 0..self.pairs.len() {
             let (a, b, kind) = self.pairs[pi];
             let emit = Emit { pair: pi as u16, kind: kind as u8, body_a: a as u16, body_b: b as u16, origin, margin };

@@ -6,6 +6,7 @@
 //! - [`aabb`], [`bvh`]: boxes and the bottom-up chain BVH (broad phase).
 //! - [`samples`]: rod samples, `x` per segment.
 //! - [`section`]: tube coordinates and the signed gap to the wall.
+//! - [`nearest`]: the nearest point of the continuous wall, from a section reading.
 //! - [`narrow`]: the narrow phases (signed, thesis, rod-rod).
 //! - [`detector`]: the per-scene object that runs a frame.
 
@@ -14,6 +15,7 @@ pub mod bvh;
 pub mod detector;
 pub mod model;
 pub mod narrow;
+pub mod nearest;
 pub mod samples;
 pub mod section;
 pub mod spline;

@@ -180,3 +180,33 @@ fn hard_folds_sharper_than_the_rod() {
     let errs: Vec<f32> = (0..3).map(|r| agree(&colon, &scope, 4, &with_refine(&colon, &scope, r), 0.1).worst).collect();
     assert!(errs[0] < 0.3 && errs[1] < 0.15 && errs[2] < 0.07, "depth error by refinement: {errs:?}");
 }
+
+fn with_nearest(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
+    let scene = interior(colon.clone(), scope.clone(), 4, Method::Signed);
+    let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
+    d.set_nearest(on);
+    d.detect(&scene.state()).unwrap().to_vec()
+}
+
+#[test]
+fn nearest_wall_points_on_folds() {
+    // Folds 2 deep every 40 (the wall sloped up to 17 degrees along the tube): the section's own
+    // foot and tangent plane are off by hundredths of a millimetre and degrees of normal; the
+    // nearest point of the continuous wall (the default) is the reference's, to its
+    // tessellation.
+    let (colon, scope) = haustral(2.0, 40.0);
+    let on = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, true), 0.05);
+    let off = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, false), 0.05);
+    assert!(on.missed.is_empty() && off.missed.is_empty(), "missed {:?} / {:?}", on.missed, off.missed);
+    assert!(on.worst < 0.005, "nearest: depth error {}", on.worst);
+    assert!(on.worst_normal < 1.5f32.to_radians(), "nearest: normal error {} deg", on.worst_normal.to_degrees());
+    assert!(off.worst > 0.02 && off.worst_normal > 2f32.to_radians(), "section only: {} mm, {} deg", off.worst, off.worst_normal.to_degrees());
+    // Folds sharper than the rod (3 deep every 25): the rod touches both flanks of a valley and
+    // the nearest point found is the one down the flank the foot slopes to; still nearer the
+    // reference than the section's tangent plane, and no sample missed that it found.
+    let (colon, scope) = haustral(3.0, 25.0);
+    let on = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, true), 0.05);
+    let off = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, false), 0.05);
+    assert!(on.worst < off.worst, "sharp folds: nearest {} mm, section {} mm", on.worst, off.worst);
+    assert!(on.missed.iter().all(|s| off.missed.contains(s)), "sharp folds: missed {:?}, section only {:?}", on.missed, off.missed);
+}

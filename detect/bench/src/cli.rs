@@ -61,6 +61,9 @@ pub struct DetectArgs {
     /// Axial refinements of the default method (Detector::set_refine).
     #[arg(long)]
     pub refine: Option<u32>,
+    /// The default method without its nearest-wall-point step (Detector::set_nearest(false)).
+    #[arg(long)]
+    pub no_nearest: bool,
     /// parry: query capsules everywhere (default: round segments, capsules only where the axis
     /// nears the wall).
     #[arg(long)]
@@ -105,6 +108,7 @@ impl DetectArgs {
         if let Some(s) = self.seed {
             o.seed = s;
         }
+        o.nearest = !self.no_nearest;
         if let Some(r) = self.refine {
             o.refine = r;
         }

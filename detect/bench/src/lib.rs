@@ -164,6 +164,9 @@ pub struct Options {
     /// Axial refinements of the default method ([`lumen_detect::Detector::set_refine`]; 0, the
     /// detector's default).
     pub refine: u32,
+    /// Whether the default method moves contacts to the nearest wall point
+    /// ([`lumen_detect::Detector::set_nearest`]; true, the detector's default).
+    pub nearest: bool,
     /// Contact margin of the detectors = parry's prediction distance (mm).
     pub margin: f32,
 }
@@ -203,6 +206,7 @@ impl Options {
             rings_doubled: true,
             parry_shape: ParryShape::RoundSegments,
             refine: 0,
+            nearest: true,
             margin: 0.0,
         }
     }

@@ -59,6 +59,7 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
             let mut d = Detector::new(&spec).map_err(|e| Error::Scene(e.to_string()))?;
             if method == MethodKind::Default {
                 d.set_refine(opts.refine);
+                d.set_nearest(opts.nearest);
             }
             Runner::Detector(d)
         }

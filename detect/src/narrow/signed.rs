@@ -9,6 +9,7 @@
 use super::Emit;
 use crate::aabb::Aabb;
 use crate::bvh::ChainBvh;
+use crate::nearest::nearest;
 use crate::samples::RodSamples;
 use crate::section::{Axial, Gap, TubeCache};
 use crate::view::TubeView;
@@ -158,8 +159,17 @@ fn second_opinion(t: &TubeView, cache: &mut TubeCache, p: &V3, first: Gap, refin
 /// Tunables of the signed narrow phase.
 #[derive(Debug, Clone, Copy)]
 pub struct SignedParams {
+    /// Axial re-projections of every section reading ([`TubeCache::gap`]).
     pub refine: u32,
+    /// Whether contacts are moved to the nearest point of the continuous wall.
+    pub nearest: bool,
 }
+
+/// How much nearer than the margin the section reading of a sample must put it before its
+/// nearest wall point is sought, in units of the margin: the section's foot is a wall point,
+/// so the true distance is never larger than its distance, but the tangent-plane distance
+/// the section reports can be (where the wall curves away along the tube).
+pub const NEAREST_REACH: f32 = 2.0;
 
 /// Interior contacts of one rod inside one tube.
 #[allow(clippy::too_many_arguments)]
@@ -230,8 +240,12 @@ pub fn interior(
         if g.sd > 0.0 {
             g = second_opinion(t, cache, &p, g, params.refine);
         }
+        // The track keeps the section's own place: it is where next frame's walk starts.
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
+        if params.nearest && g.sd + r > -NEAREST_REACH * emit.margin {
+            g = nearest(t, cache, &p, g);
+        }
         let depth = g.sd + r;
         if depth > -emit.margin {
             out.push(tube_contact(rod, s, &g, r, depth, g.normal, emit, t.spokes));
@@ -289,9 +303,16 @@ pub fn exterior(
             }
         }
     });
-    for (s, (depth, g)) in best.iter().enumerate() {
-        if *depth > -emit.margin {
-            out.push(tube_contact(rod, s, g, rod.radius[s], *depth, -g.normal, emit, t.spokes));
+    for (s, &(depth, g)) in best.iter().enumerate() {
+        let r = rod.radius[s];
+        let (depth, g) = if params.nearest && depth > -NEAREST_REACH * emit.margin {
+            let g = nearest(t, cache, &rod.pos[s], g);
+            (r - g.sd, g)
+        } else {
+            (depth, g)
+        };
+        if depth > -emit.margin {
+            out.push(tube_contact(rod, s, &g, r, depth, -g.normal, emit, t.spokes));
         }
     }
 }
