@@ -35,7 +35,7 @@
 //! gradient of the distance, continuous as the point moves), oriented outward. A descent that
 //! ends where the wall faces the other way (a fold of the surface) is not taken.
 
-use crate::section::{Gap, TubeCache};
+use crate::section::{Axial, Gap, TubeCache};
 use crate::view::TubeView;
 use crate::V3;
 
@@ -112,6 +112,20 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap) -> Gap {
         let down = descend(t, cache, p, start, s0, Some(-FLOOR_STEP), tol);
         if down.d2 < up.d2 { down } else { up }
     } else {
+        // The foot on the wall's tangent plane lies, to first order, as far along the tube as
+        // the nearest point: start there where that is nearer (fewer steps across rings).
+        let (start, s0) = match cache.axial(t, &from.wall, from.seg, 4) {
+            Axial::In { seg, u } if seg != start.seg || (u - start.u).abs() > 0.05 => {
+                let alt = Patch { seg, u, ..start };
+                let sa = local(t, cache, alt);
+                if (p - sa.s).norm_squared() < start2 {
+                    (alt, sa)
+                } else {
+                    (start, s0)
+                }
+            }
+            _ => (start, s0),
+        };
         descend(t, cache, p, start, s0, None, tol)
     };
     let End { at, here, d2 } = end;
