@@ -31,12 +31,12 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("frame");
     g.sample_size(40).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
     for x in [1u32, 2, 4] {
-        // `signed-section`: the default method without its nearest-wall-point step.
+        // `signed+nearest`: contacts at the nearest point of the continuous wall.
         for (name, method, prevalidated, nearest) in [
-            ("signed", Method::Signed, true, true),
-            ("signed-section", Method::Signed, true, false),
-            ("signed+check", Method::Signed, false, true),
-            ("thesis", Method::Thesis, false, true),
+            ("signed", Method::Signed, true, false),
+            ("signed+nearest", Method::Signed, true, true),
+            ("signed+check", Method::Signed, false, false),
+            ("thesis", Method::Thesis, false, false),
         ] {
             let (spec, states) = states(method, x);
             let mut d = Detector::new(&spec).unwrap();

@@ -67,7 +67,7 @@ impl Detector {
             })
             .collect();
         let pair_state = pairs.iter().map(|_| PairState::default()).collect();
-        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 0, nearest: true })
+        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 0, nearest: spec.nearest })
     }
 
     /// The scene this detector serves.
@@ -94,9 +94,9 @@ impl Detector {
     }
 
     /// Whether the signed method moves each contact to the nearest point of the continuous
-    /// wall ([`crate::nearest`]; default true). Off, a contact keeps the section's own foot
-    /// and the distance to the wall's tangent plane there: cheaper, and millimetres off where
-    /// the wall slopes steeply along the tube.
+    /// wall ([`crate::nearest`]; the spec's `nearest`, false by default). Off, a contact keeps
+    /// the section's own foot and the distance to the wall's tangent plane there: cheaper, and
+    /// tenths of a millimetre off where the wall slopes steeply along the tube.
     pub fn set_nearest(&mut self, on: bool) {
         self.nearest = on;
     }

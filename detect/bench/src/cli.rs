@@ -28,7 +28,8 @@ pub struct DetectArgs {
     /// Spoke counts B, comma-separated.
     #[arg(long, value_delimiter = ',')]
     pub spokes: Option<Vec<usize>>,
-    /// Methods, comma-separated: default, thesis, parry.
+    /// Methods, comma-separated: default, nearest (the default with contacts at the nearest
+    /// point of the continuous wall), thesis, parry.
     #[arg(long, value_delimiter = ',', value_parser = parse_method)]
     pub methods: Option<Vec<MethodKind>>,
     /// Frames per scene (1 mm of insertion each).
@@ -61,9 +62,6 @@ pub struct DetectArgs {
     /// Axial refinements of the default method (Detector::set_refine).
     #[arg(long)]
     pub refine: Option<u32>,
-    /// The default method without its nearest-wall-point step (Detector::set_nearest(false)).
-    #[arg(long)]
-    pub no_nearest: bool,
     /// parry: query capsules everywhere (default: round segments, capsules only where the axis
     /// nears the wall).
     #[arg(long)]
@@ -77,7 +75,7 @@ pub struct DetectArgs {
 }
 
 fn parse_method(s: &str) -> Result<MethodKind, String> {
-    MethodKind::parse(s.trim()).ok_or_else(|| format!("unknown method {s:?} (default, thesis or parry)"))
+    MethodKind::parse(s.trim()).ok_or_else(|| format!("unknown method {s:?} (default, nearest, thesis or parry)"))
 }
 
 impl DetectArgs {
@@ -108,7 +106,6 @@ impl DetectArgs {
         if let Some(s) = self.seed {
             o.seed = s;
         }
-        o.nearest = !self.no_nearest;
         if let Some(r) = self.refine {
             o.refine = r;
         }

@@ -79,18 +79,22 @@ impl std::error::Error for Error {}
 pub enum MethodKind {
     Thesis,
     Default,
+    /// The default method with contacts at the nearest point of the continuous wall (the
+    /// spec's `nearest`).
+    Nearest,
     Parry,
 }
 
 impl MethodKind {
-    /// All three, in report order.
-    pub const ALL: [MethodKind; 3] = [MethodKind::Default, MethodKind::Thesis, MethodKind::Parry];
+    /// All four, in report order.
+    pub const ALL: [MethodKind; 4] = [MethodKind::Default, MethodKind::Nearest, MethodKind::Thesis, MethodKind::Parry];
 
-    /// `thesis`, `default` or `parry`.
+    /// `thesis`, `default`, `nearest` or `parry`.
     pub fn name(self) -> &'static str {
         match self {
             MethodKind::Thesis => "thesis",
             MethodKind::Default => "default",
+            MethodKind::Nearest => "nearest",
             MethodKind::Parry => "parry",
         }
     }
@@ -164,9 +168,6 @@ pub struct Options {
     /// Axial refinements of the default method ([`lumen_detect::Detector::set_refine`]; 0, the
     /// detector's default).
     pub refine: u32,
-    /// Whether the default method moves contacts to the nearest wall point
-    /// ([`lumen_detect::Detector::set_nearest`]; true, the detector's default).
-    pub nearest: bool,
     /// Contact margin of the detectors = parry's prediction distance (mm).
     pub margin: f32,
 }
@@ -206,7 +207,6 @@ impl Options {
             rings_doubled: true,
             parry_shape: ParryShape::RoundSegments,
             refine: 0,
-            nearest: true,
             margin: 0.0,
         }
     }

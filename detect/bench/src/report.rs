@@ -196,9 +196,10 @@ fn short(v: f64) -> String {
 fn method_rank(m: &str) -> usize {
     match m {
         "default" => 0,
-        "thesis" => 1,
-        "parry" => 2,
-        _ => 3,
+        "nearest" => 1,
+        "thesis" => 2,
+        "parry" => 3,
+        _ => 4,
     }
 }
 
@@ -475,6 +476,7 @@ impl Report {
             const FLOOR: f64 = 1e-4;
             let colour = |m: &str| match m {
                 "default" => RGBColor(0, 114, 178),
+                "nearest" => RGBColor(204, 121, 167),
                 "thesis" => RGBColor(213, 94, 0),
                 "parry" => RGBColor(0, 158, 115),
                 _ => RGBColor(80, 80, 80),

@@ -46,6 +46,7 @@ pub fn spec_for(scene: &SceneData, x: u32, method: MethodKind) -> SceneSpec {
         MethodKind::Thesis => Method::Thesis,
         _ => Method::Signed,
     };
+    s.nearest = method == MethodKind::Nearest;
     s
 }
 
@@ -57,9 +58,8 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
         MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape).map_err(Error::Scene)?),
         _ => {
             let mut d = Detector::new(&spec).map_err(|e| Error::Scene(e.to_string()))?;
-            if method == MethodKind::Default {
+            if matches!(method, MethodKind::Default | MethodKind::Nearest) {
                 d.set_refine(opts.refine);
-                d.set_nearest(opts.nearest);
             }
             Runner::Detector(d)
         }

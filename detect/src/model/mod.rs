@@ -210,6 +210,7 @@ pub struct Scene {
     pub alpha: Option<f32>,
     pub margin: f32,
     pub method: Method,
+    pub nearest: bool,
 }
 
 impl Scene {
@@ -241,6 +242,11 @@ impl Scene {
         self.method = m;
         self
     }
+    /// Contacts at the nearest point of the continuous wall (`SceneSpec::nearest`).
+    pub fn nearest(mut self, on: bool) -> Self {
+        self.nearest = on;
+        self
+    }
     /// The spec of this scene.
     pub fn spec(&self) -> SceneSpec {
         let bodies = self.bodies.iter().map(|(name, b)| BodySpec { name: name.clone(), shape: b.shape() }).collect();
@@ -253,6 +259,7 @@ impl Scene {
         }
         s.margin = self.margin;
         s.method = self.method;
+        s.nearest = self.nearest;
         s
     }
     /// The frame state of this scene, bodies in order.
