@@ -245,6 +245,10 @@ mod tests {
         assert_eq!(parsed, spec());
         assert_eq!(parsed.validate().unwrap(), vec![(1, 0, ContactKind::Interior)]);
         assert_eq!(parsed.bodies[0].floats(), 10 * 9 * 3);
+        assert!(!parsed.nearest, "contacts in the sample's own section unless declared");
+        let on: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""nearest":true,"pairs""#)).unwrap();
+        assert!(on.nearest);
+        assert_eq!(serde_json::from_str::<SceneSpec>(&serde_json::to_string(&on).unwrap()).unwrap(), on);
     }
 
     #[test]

@@ -153,6 +153,7 @@ pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
     );
     spec.precision = sim.precision;
     spec.margin = sim.margin_mm;
+    spec.nearest = sim.nearest;
     spec
 }
 
