@@ -185,12 +185,17 @@ pub fn interior(
     counters: &mut Counters,
 ) {
     let mut neighbour: Option<usize> = None;
+    // Segments the sample before moved along the tube since last frame: the scope slides as
+    // one, so each sample's walk starts that far from where it was (with rings denser than the
+    // scope moves per frame, the walk then crosses no plane instead of several).
+    let mut shift: isize = 0;
+    let last = t.segments() as isize - 1;
     // By index: a sample reads its position, radius and track, and writes its track.
     #[allow(clippy::needless_range_loop)]
     for s in 0..rod.len() {
         let p = rod.pos[s];
         let tr = tracks[s];
-        let guess = if tr.valid { Some(tr.seg as usize) } else { neighbour };
+        let guess = if tr.valid { Some((tr.seg as isize + shift).clamp(0, last) as usize) } else { neighbour };
         let mut axial = match guess {
             Some(g) => cache.axial(t, &p, g, WINDOW),
             None => Axial::Lost,
@@ -241,6 +246,9 @@ pub fn interior(
             g = second_opinion(t, cache, &p, g, params.refine);
         }
         // The track keeps the section's own place: it is where next frame's walk starts.
+        if tr.valid {
+            shift = g.seg as isize - tr.seg as isize;
+        }
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
         if params.nearest && g.sd + r > -NEAREST_REACH * emit.margin {
