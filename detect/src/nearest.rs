@@ -224,30 +224,17 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         // goes on into it; if it would come straight back, the edge is a crease: pin it.
         if el != 0 {
             let across = if el < 0 { Patch { k: (at.k + b - 1) % b, l: 1.0, ..at } } else { Patch { k: (at.k + 1) % b, l: 0.0, ..at } };
-            let there = local(t, cache, across);
-            let g = (p - there.s).dot(&there.sl);
-            if (el < 0 && g < 0.0) || (el > 0 && g > 0.0) {
-                at = across;
-                here = there;
-            } else {
-                pin_l = el;
+            match goes_on(t, cache, p, across, el, |w| w.sl) {
+                Some(there) => (at, here) = (across, there),
+                None => pin_l = el,
             }
         }
         if eu != 0 {
             let seg = if eu < 0 { at.seg.checked_sub(1) } else { (at.seg < last).then_some(at.seg + 1) };
-            match seg {
+            let across = seg.map(|seg| Patch { seg, u: if eu < 0 { 1.0 } else { 0.0 }, ..at });
+            match across.and_then(|a| goes_on(t, cache, p, a, eu, |w| w.su).map(|there| (a, there))) {
+                Some((a, there)) => (at, here) = (a, there),
                 None => pin_u = eu,
-                Some(seg) => {
-                    let across = Patch { seg, u: if eu < 0 { 1.0 } else { 0.0 }, ..at };
-                    let there = local(t, cache, across);
-                    let g = (p - there.s).dot(&there.su);
-                    if (eu < 0 && g < 0.0) || (eu > 0 && g > 0.0) {
-                        at = across;
-                        here = there;
-                    } else {
-                        pin_u = eu;
-                    }
-                }
             }
         }
         if step2 <= tol * tol {
@@ -255,6 +242,15 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         }
     }
     End { at, here, d2 }
+}
+
+/// The wall at `across`, the patch beyond an edge the descent reached on side `e` (-1 lower,
+/// +1 upper), if the descent goes on into it: if `p`'s gradient along the crossed coordinate
+/// (`along`: `S_u` or `S_l`) points further in.
+fn goes_on(t: &TubeView, cache: &mut TubeCache, p: &V3, across: Patch, e: i8, along: fn(&Local) -> V3) -> Option<Local> {
+    let there = local(t, cache, across);
+    let g = (p - there.s).dot(&along(&there));
+    ((e < 0 && g < 0.0) || (e > 0 && g > 0.0)).then_some(there)
 }
 
 /// The largest fraction of step `d` that keeps `x + d` in [0, 1].

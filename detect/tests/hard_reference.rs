@@ -147,11 +147,16 @@ fn haustral(amp: f32, period: f32) -> (Tube, Rod) {
     (colon, scope)
 }
 
-fn with_refine(colon: &Tube, scope: &Rod, refine: u32) -> Vec<Contact> {
+/// One frame of the signed method at x = 4, with `set` applied to the detector first.
+fn signed_with(colon: &Tube, scope: &Rod, set: impl FnOnce(&mut lumen_detect::Detector)) -> Vec<Contact> {
     let scene = interior(colon.clone(), scope.clone(), 4, Method::Signed);
     let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
-    d.set_refine(refine);
+    set(&mut d);
     d.detect(&scene.state()).unwrap().to_vec()
+}
+
+fn with_refine(colon: &Tube, scope: &Rod, refine: u32) -> Vec<Contact> {
+    signed_with(colon, scope, |d| d.set_refine(refine))
 }
 
 #[test]
@@ -182,17 +187,14 @@ fn hard_folds_sharper_than_the_rod() {
 }
 
 fn with_nearest(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
-    let scene = interior(colon.clone(), scope.clone(), 4, Method::Signed);
-    let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
-    d.set_nearest(on);
-    d.detect(&scene.state()).unwrap().to_vec()
+    signed_with(colon, scope, |d| d.set_nearest(on))
 }
 
 #[test]
 fn nearest_wall_points_on_folds() {
     // Folds 2 deep every 40 (the wall sloped up to 17 degrees along the tube): the section's own
     // foot and tangent plane are off by hundredths of a millimetre and degrees of normal; the
-    // nearest point of the continuous wall (the default) is the reference's, to its
+    // nearest point of the continuous wall (the spec's `nearest`) is the reference's, to its
     // tessellation.
     let (colon, scope) = haustral(2.0, 40.0);
     let on = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, true), 0.05);
