@@ -156,8 +156,8 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     }
 }
 
-/// Decodes a frame straight from zenoh's fragments into `state` (capacity: the state size), with
-/// the checks of [`lumen_proto::wire::decode_frame`] and no intermediate contiguous copy.
+/// Decodes a frame straight from zenoh's fragments into `state` (resized to the frame's floats),
+/// with the checks of [`lumen_proto::wire::decode_frame`] and no intermediate contiguous copy.
 pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &StateLayout, state: &mut Vec<f32>) -> Result<FrameHeader, (FrameHeader, FrameError)> {
     let len = payload.len();
     if len < FRAME_HEADER_BYTES {
@@ -180,25 +180,25 @@ pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &Sta
         return Err((header, FrameError::Ragged { bytes: body }));
     }
     header.check(session, layout, body / 4).map_err(|e| (header, e))?;
-    state.clear();
-    let mut carry = [0u8; 4];
-    let mut nc = 0;
-    for mut s in std::iter::once(rest).chain(slices) {
-        if nc > 0 {
-            let n = s.len().min(4 - nc);
-            carry[nc..nc + n].copy_from_slice(&s[..n]);
-            nc += n;
-            s = &s[n..];
-            if nc < 4 {
-                continue;
-            }
-            state.push(f32::from_le_bytes(carry));
+    // The floats travel little-endian, as this machine keeps them: each fragment is copied
+    // byte for byte into the state, wherever it cuts a float. Every byte is overwritten, so the
+    // state keeps its length from frame to frame instead of being cleared and zeroed.
+    let floats = body / 4;
+    if state.len() != floats {
+        state.clear();
+        state.resize(floats, 0.0);
+    }
+    let bytes: &mut [u8] = bytemuck::cast_slice_mut(state.as_mut_slice());
+    let mut at = 0;
+    for s in std::iter::once(rest).chain(slices) {
+        bytes[at..at + s.len()].copy_from_slice(s);
+        at += s.len();
+    }
+    debug_assert_eq!(at, body);
+    if cfg!(target_endian = "big") {
+        for v in state.iter_mut() {
+            *v = f32::from_bits(u32::from_le(v.to_bits()));
         }
-        let chunks = s.chunks_exact(4);
-        let tail = chunks.remainder();
-        state.extend(chunks.map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
-        carry[..tail.len()].copy_from_slice(tail);
-        nc = tail.len();
     }
     Ok(header)
 }
@@ -216,7 +216,9 @@ mod tests {
         let floats: Vec<f32> = (0..150).map(|i| i as f32 * 0.5).collect();
         let mut msg = Vec::new();
         encode_frame(&FrameHeader::new(9, 4, 0, 150, 1), &floats, &mut msg);
-        // Cut into fragments at awkward places (inside the header, inside floats).
+        // Cut into fragments at awkward places (inside the header, inside floats), decoded into
+        // one state that starts full of stale values (as a session's is after a frame).
+        let mut state = vec![f32::NAN; 150];
         for cuts in [vec![], vec![7], vec![40, 41, 43, 100], vec![3, 39, 45, 46, 47, 333, 600]] {
             let mut w = zenoh::bytes::ZBytes::writer();
             let mut at = 0;
@@ -226,12 +228,15 @@ mod tests {
             }
             let z = w.finish();
             assert_eq!(z.slices().count(), cuts.len() + 1);
-            let mut state = Vec::with_capacity(150);
             let h = decode_payload(&z, 9, &layout, &mut state).unwrap();
             assert_eq!((h.frame, state.as_slice()), (4, floats.as_slice()), "cuts {cuts:?}");
         }
         let short = zenoh::bytes::ZBytes::from(msg[..msg.len() - 2].to_vec());
         assert_eq!(decode_payload(&short, 9, &layout, &mut Vec::new()).unwrap_err().1, FrameError::Ragged { bytes: 598 });
+        // A fresh, empty state is sized to the frame.
+        let mut fresh = Vec::new();
+        decode_payload(&zenoh::bytes::ZBytes::from(msg.clone()), 9, &layout, &mut fresh).unwrap();
+        assert_eq!(fresh, floats);
         assert_eq!(decode_payload(&zenoh::bytes::ZBytes::from(vec![1u8; 5]), 9, &layout, &mut Vec::new()).unwrap_err().1, FrameError::TooShort { got: 5 });
     }
 }
