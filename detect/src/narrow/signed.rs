@@ -214,11 +214,12 @@ pub fn interior(
                 gap = Some(g);
             }
         }
-        if axial == Axial::Lost {
+        let walked = axial != Axial::Lost;
+        if walked {
+            counters.walked += 1;
+        } else {
             axial = reacquire(t, cache, bvh, &p, params.refine, counters);
             k_guess = None;
-        } else {
-            counters.walked += 1;
         }
         let (seg, u) = match axial {
             Axial::In { seg, u } => (seg, u),
@@ -246,9 +247,9 @@ pub fn interior(
             g = second_opinion(t, cache, &p, g, params.refine);
         }
         // The track keeps the section's own place: it is where next frame's walk starts.
-        if tr.valid {
-            shift = g.seg as isize - tr.seg as isize;
-        }
+        // A sample that had to re-acquire (it jumped, or its loop touches another) says
+        // nothing about how the next one moved.
+        shift = if tr.valid && walked { g.seg as isize - tr.seg as isize } else { 0 };
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
         if params.nearest && g.sd + r > -NEAREST_REACH * emit.margin {
