@@ -20,6 +20,8 @@ pub struct FrameStats {
     pub reacquired: u32,
     /// Candidate leaf pairs from BVH traversals.
     pub candidates: u32,
+    /// Ring planes the default method's walks crossed (from each sample's starting guess).
+    pub planes: u32,
     /// Contacts emitted.
     pub contacts: u32,
 }
@@ -205,7 +207,7 @@ impl Detector {
                 (ContactKind::SelfContact, Shape::Tube { .. }) => unreachable!("validated: self contact is rod-only"),
             }
         }
-        self.stats = FrameStats { walked: counters.walked, reacquired: counters.reacquired, candidates: counters.candidates, contacts: self.contacts.len() as u32 };
+        self.stats = FrameStats { walked: counters.walked, reacquired: counters.reacquired, candidates: counters.candidates, planes: counters.planes, contacts: self.contacts.len() as u32 };
         &self.contacts
     }
 

@@ -127,3 +127,22 @@ fn coherence_walks_instead_of_reacquiring() {
         }
     }
 }
+
+#[test]
+fn the_walk_starts_where_the_sample_before_moved() {
+    // Rings every 0.25 mm and a scope sliding 1 mm per frame: each sample's own segment moves
+    // 4 planes a frame. The first sample walks them; every other one starts where the sample
+    // before it moved, so the frame crosses about 4 planes, not 4 per sample.
+    let colon = straight(801, 0.25, 20.0, 32);
+    let mut d = Detector::new(&interior(colon.clone(), line([20.0, 15.0, 0.0], [60.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed).spec()).unwrap();
+    for f in 0..20 {
+        let x0 = 20.0 + f as f32;
+        let scene = interior(colon.clone(), line([x0, 15.0, 0.0], [x0 + 40.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed);
+        assert_eq!(d.detect(&scene.state()).unwrap().len(), 33);
+        let st = d.stats();
+        if f > 0 {
+            assert_eq!((st.reacquired, st.walked), (0, 33), "frame {f}");
+            assert!(st.planes <= 8, "frame {f}: {} planes crossed by 33 samples", st.planes);
+        }
+    }
+}

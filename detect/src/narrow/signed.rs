@@ -42,6 +42,8 @@ pub struct Counters {
     pub reacquired: u32,
     /// Candidate leaf pairs from BVH traversals.
     pub candidates: u32,
+    /// Ring planes the walks crossed, from each sample's starting guess to its segment.
+    pub planes: u32,
 }
 
 /// The tube's BVH with conservative leaves (spline bulge + every spoke of both rings), refit at
@@ -217,6 +219,9 @@ pub fn interior(
         let walked = axial != Axial::Lost;
         if walked {
             counters.walked += 1;
+            if let (Axial::In { seg, .. }, Some(g)) = (axial, guess) {
+                counters.planes += seg.abs_diff(g) as u32;
+            }
         } else {
             axial = reacquire(t, cache, bvh, &p, params.refine, counters);
             k_guess = None;
