@@ -118,8 +118,8 @@ proptest! {
 
     #[test]
     fn never_nan_or_panic((t, r) in scene_strategy(false), x in 1u32..6) {
-        for m in [Method::Signed, Method::Thesis] {
-            let cs = run(&interior(t.clone(), r.clone(), x, m));
+        for (m, nearest) in [(Method::Signed, false), (Method::Signed, true), (Method::Thesis, false)] {
+            let cs = run(&interior(t.clone(), r.clone(), x, m).nearest(nearest));
             check_contacts(&cs)?;
             if m == Method::Signed {
                 prop_assert!(cs.iter().all(|c| c.depth > 0.0));
@@ -222,34 +222,36 @@ proptest! {
         let reference = lumen_oracle::Reference::new(&t, 0.5, 12);
         let size = (0..t.spokes).map(|k| norm(t.spoke(0, k))).fold(0.0, f32::max);
         let tol = 0.02 * size + reference.bound();
-        let scene = interior(t.clone(), r.clone(), 3, Method::Signed);
-        let cs = run(&scene);
-        let flat: Vec<f32> = r.points.iter().flatten().copied().collect();
-        let mut samples = lumen_detect::samples::RodSamples::default();
-        samples.fill(&lumen_detect::view::RodView::new(&flat, r.points.len(), lumen_detect::V3::zeros()), |_| r.radius[0], 3, 0.5);
-        let (last_ring, first_ring) = (t.points[t.rings() - 1], t.points[0]);
-        for (s, p) in samples.pos.iter().enumerate() {
-            let p = [p.x, p.y, p.z];
-            let q = reference.query(p);
-            let want = r.radius[0] + q.sd;
-            // Beyond or near the open ends (within 2 sizes of the end rings' planes) the reference
-            // is capped and the pipeline open, reporting nothing past an end by design: skip.
-            let along = |from: [f32; 3], dir: [f32; 3]| dot(sub(p, from), dir) / norm(dir).max(f32::MIN_POSITIVE);
-            let n = t.rings();
-            if along(first_ring, sub(t.points[1], t.points[0])) < 2.0 * size || along(last_ring, sub(t.points[n - 2], t.points[n - 1])) < 2.0 * size {
-                continue;
-            }
-            let found = cs.iter().find(|c| c.sample as usize == s);
-            if q.sd.abs() <= 0.25 * size {
-                // Near the wall, where contacts are resolved: the reference's depth.
-                match found {
-                    Some(c) => prop_assert!((c.depth - want).abs() < tol, "sample {s}: depth {} reference {want} (tol {tol})", c.depth),
-                    None => prop_assert!(want < tol, "sample {s} missed: reference depth {want} (tol {tol})"),
+        for nearest in [false, true] {
+            let scene = interior(t.clone(), r.clone(), 3, Method::Signed).nearest(nearest);
+            let cs = run(&scene);
+            let flat: Vec<f32> = r.points.iter().flatten().copied().collect();
+            let mut samples = lumen_detect::samples::RodSamples::default();
+            samples.fill(&lumen_detect::view::RodView::new(&flat, r.points.len(), lumen_detect::V3::zeros()), |_| r.radius[0], 3, 0.5);
+            let (last_ring, first_ring) = (t.points[t.rings() - 1], t.points[0]);
+            for (s, p) in samples.pos.iter().enumerate() {
+                let p = [p.x, p.y, p.z];
+                let q = reference.query(p);
+                let want = r.radius[0] + q.sd;
+                // Beyond or near the open ends (within 2 sizes of the end rings' planes) the reference
+                // is capped and the pipeline open, reporting nothing past an end by design: skip.
+                let along = |from: [f32; 3], dir: [f32; 3]| dot(sub(p, from), dir) / norm(dir).max(f32::MIN_POSITIVE);
+                let n = t.rings();
+                if along(first_ring, sub(t.points[1], t.points[0])) < 2.0 * size || along(last_ring, sub(t.points[n - 2], t.points[n - 1])) < 2.0 * size {
+                    continue;
                 }
-            } else if q.sd > 0.0 {
-                // Far outside (tangent planes of a twisting wall extrapolate poorly there): still a
-                // contact, deeper than the rod is thick, however far out.
-                prop_assert!(found.is_some_and(|c| c.depth > r.radius[0]), "sample {s}, {} outside: {:?}", q.sd, found.map(|c| c.depth));
+                let found = cs.iter().find(|c| c.sample as usize == s);
+                if q.sd.abs() <= 0.25 * size {
+                    // Near the wall, where contacts are resolved: the reference's depth.
+                    match found {
+                        Some(c) => prop_assert!((c.depth - want).abs() < tol, "nearest {nearest}: sample {s}: depth {} reference {want} (tol {tol})", c.depth),
+                        None => prop_assert!(want < tol, "nearest {nearest}: sample {s} missed: reference depth {want} (tol {tol})"),
+                    }
+                } else if q.sd > 0.0 {
+                    // Far outside (tangent planes of a twisting wall extrapolate poorly there): still a
+                    // contact, deeper than the rod is thick, however far out.
+                    prop_assert!(found.is_some_and(|c| c.depth > r.radius[0]), "nearest {nearest}: sample {s}, {} outside: {:?}", q.sd, found.map(|c| c.depth));
+                }
             }
         }
     }
