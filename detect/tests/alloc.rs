@@ -28,7 +28,7 @@ static A: Counting = Counting;
 
 #[test]
 fn no_allocation_per_frame_after_warm_up() {
-    for method in [Method::Signed, Method::Thesis] {
+    for (method, nearest) in [(Method::Signed, false), (Method::Signed, true), (Method::Thesis, false)] {
         // Every kind of pair at once, the rod moving, touching and leaving the wall.
         let colon = arc(80, 150.0, 2.0, 20.0, 24);
         let other = line([0.0, 60.0, 30.0], [100.0, 60.0, 30.0], 12, 3.0);
@@ -47,6 +47,7 @@ fn no_allocation_per_frame_after_warm_up() {
                 .pair("scope", "scope", ContactKind::SelfContact)
                 .precision(4)
                 .method(method)
+                .nearest(nearest)
         };
         let mut d = Detector::new(&scene_at(0).spec()).unwrap();
         let states: Vec<Vec<f32>> = (0..40).map(|f| scene_at(f).state()).collect();
@@ -60,7 +61,7 @@ fn no_allocation_per_frame_after_warm_up() {
             total += d.detect(s).unwrap().len();
         }
         let after = ALLOCS.load(Ordering::Relaxed);
-        assert!(total > 100, "{method:?}: the scene must produce contacts ({total})");
-        assert_eq!(after - before, 0, "{method:?}: allocations in 40 warmed-up frames");
+        assert!(total > 100, "{method:?} (nearest {nearest}): the scene must produce contacts ({total})");
+        assert_eq!(after - before, 0, "{method:?} (nearest {nearest}): allocations in 40 warmed-up frames");
     }
 }
