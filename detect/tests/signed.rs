@@ -110,14 +110,18 @@ fn bend_outer_wall_depth_matches_the_torus() {
     }
 }
 
+/// A 9-point scope of radius 6.5, 15 mm off the axis of a straight colon, slid `f` mm along it.
+fn slid(colon: &lumen_detect::Tube, f: usize) -> lumen_detect::Scene {
+    let x0 = 20.0 + f as f32;
+    interior(colon.clone(), line([x0, 15.0, 0.0], [x0 + 40.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed)
+}
+
 #[test]
 fn coherence_walks_instead_of_reacquiring() {
     let colon = straight(200, 1.0, 20.0, 32);
-    let mut d = Detector::new(&interior(colon.clone(), line([20.0, 15.0, 0.0], [60.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed).spec()).unwrap();
+    let mut d = Detector::new(&slid(&colon, 0).spec()).unwrap();
     for f in 0..50 {
-        let x0 = 20.0 + f as f32;
-        let scene = interior(colon.clone(), line([x0, 15.0, 0.0], [x0 + 40.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed);
-        let n = d.detect(&scene.state()).unwrap().len();
+        let n = d.detect(&slid(&colon, f).state()).unwrap().len();
         assert_eq!(n, 33);
         let st = d.stats();
         if f == 0 {
@@ -134,11 +138,9 @@ fn the_walk_starts_where_the_sample_before_moved() {
     // 4 planes a frame. The first sample walks them; every other one starts where the sample
     // before it moved, so the frame crosses about 4 planes, not 4 per sample.
     let colon = straight(801, 0.25, 20.0, 32);
-    let mut d = Detector::new(&interior(colon.clone(), line([20.0, 15.0, 0.0], [60.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed).spec()).unwrap();
+    let mut d = Detector::new(&slid(&colon, 0).spec()).unwrap();
     for f in 0..20 {
-        let x0 = 20.0 + f as f32;
-        let scene = interior(colon.clone(), line([x0, 15.0, 0.0], [x0 + 40.0, 15.0, 0.0], 9, 6.5), 4, Method::Signed);
-        assert_eq!(d.detect(&scene.state()).unwrap().len(), 33);
+        assert_eq!(d.detect(&slid(&colon, f).state()).unwrap().len(), 33);
         let st = d.stats();
         if f > 0 {
             assert_eq!((st.reacquired, st.walked), (0, 33), "frame {f}");
