@@ -8,7 +8,10 @@
 //! on the real colon the two differ by millimetres and their normals by tens of degrees, and
 //! the distance jumps where a point crosses from one segment to the next.
 //!
-//! From `W0` this descends on the surface itself,
+//! This descends on the surface itself, from `W0` or, where that is nearer, from the same
+//! strip position in the section through the tangent plane's foot (which lies, to first order,
+//! as far along the tube as the nearest point); from a valley floor or a fold crest, where the
+//! foot's own slope does not tell which way the nearest flank lies, both ways along the tube:
 //!
 //! ```text
 //! minimise f(u, l) = |S(u, l) - P|^2 / 2,   r = P - S,
@@ -49,7 +52,7 @@ pub const FLOOR_COS: f32 = 0.2;
 /// The first step of a descent started both ways, in segments along the tube.
 pub const FLOOR_STEP: f32 = 0.25;
 
-/// Where on the wall, and the wall's derivatives there.
+/// Where on the wall: segment `seg`, strip `k` (spokes `k`, `k + 1`), and `(u, l)` in it.
 #[derive(Debug, Clone, Copy)]
 struct Patch {
     seg: usize,
@@ -58,6 +61,7 @@ struct Patch {
     l: f32,
 }
 
+/// The wall at a patch point and its derivatives there (see the module's formulas).
 struct Local {
     s: V3,
     su: V3,
