@@ -197,6 +197,10 @@ fn nearest_wall_points_on_folds() {
     // nearest point of the continuous wall (the spec's `nearest`) is the reference's, to its
     // tessellation.
     let (colon, scope) = haustral(2.0, 40.0);
+    // Declared in the spec (as a daemon client would) it is the same as set on the detector.
+    let declared = run(&interior(colon.clone(), scope.clone(), 4, Method::Signed).nearest(true));
+    assert_eq!(declared, with_nearest(&colon, &scope, true));
+    assert_ne!(declared, with_nearest(&colon, &scope, false));
     let on = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, true), 0.05);
     let off = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, false), 0.05);
     assert!(on.missed.is_empty() && off.missed.is_empty(), "missed {:?} / {:?}", on.missed, off.missed);
