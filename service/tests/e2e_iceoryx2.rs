@@ -4,7 +4,7 @@
 
 use lumen_client::{Client, Error, LocalOptions, Observed};
 use lumen_detect::Detector;
-use lumen_e2e::{eventually, same_bits, shm_files, unique_prefix, ChildProcess, Daemon, TestScene};
+use lumen_e2e::{eventually, kill9_and_time_freeing, same_bits, shm_files, unique_prefix, ChildProcess, Daemon, TestScene};
 use lumen_proto::wire::Status;
 use std::path::Path;
 use std::process::Command;
@@ -236,27 +236,6 @@ fn hold_for_debugging(daemon: &Daemon) {
     }
 }
 
-/// Waits until `session` is gone from the daemon's status; returns how long that took after
-/// `killed`, or the last status seen.
-fn freed_after(status: &Client, session: u64, killed: Instant) -> Result<Duration, String> {
-    let mut last = String::new();
-    let freed = eventually(Duration::from_secs(3), || match status.status() {
-        Ok(s) => {
-            last = format!("sessions {:?}", s.sessions.iter().map(|x| x.session).collect::<Vec<_>>());
-            s.sessions.iter().all(|x| x.session != session)
-        }
-        Err(e) => {
-            last = format!("status failed: {e}");
-            false
-        }
-    });
-    if freed {
-        Ok(killed.elapsed())
-    } else {
-        Err(last)
-    }
-}
-
 #[test]
 fn a_killed_client_is_noticed_within_a_second_and_others_go_on() {
     let prefix = unique_prefix("k9c");
@@ -268,9 +247,7 @@ fn a_killed_client_is_noticed_within_a_second_and_others_go_on() {
     assert!(victim.line_starting("ok ", WAIT).is_some() && survivor.line_starting("ok ", WAIT).is_some());
     let status = client(&prefix);
     assert_eq!(status.status().unwrap().sessions.len(), 2);
-    victim.kill9();
-    let killed = Instant::now();
-    let noticed = freed_after(&status, victim_id, killed).unwrap_or_else(|last| {
+    let noticed = kill9_and_time_freeing(&mut victim, &status, victim_id).unwrap_or_else(|last| {
         hold_for_debugging(&daemon);
         panic!("the dead client's session {victim_id} was not freed; last status: {last}")
     });
@@ -297,9 +274,7 @@ fn a_client_killed_before_its_sessions_first_tick_is_noticed() {
     let mut victim = spawn_client(&prefix);
     let id: u64 = victim.session_id();
     assert!(victim.line_starting("ok ", WAIT).is_some());
-    victim.kill9();
-    let killed = Instant::now();
-    let noticed = freed_after(&status, id, killed).unwrap_or_else(|last| {
+    let noticed = kill9_and_time_freeing(&mut victim, &status, id).unwrap_or_else(|last| {
         hold_for_debugging(&daemon);
         panic!("session {id}, whose client died at once, was not freed; last status: {last}")
     });

@@ -7,7 +7,7 @@ use lumen_detect::Detector;
 use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
 use lumen_proto::wire::{encode_frame, FrameHeader, Status, FRAME_HEADER_BYTES};
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use zenoh::Wait;
 
 const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
@@ -33,11 +33,7 @@ fn a_killed_zenoh_client_is_noticed_within_a_second_and_others_go_on() {
     assert!(victim.line_starting("ok ", WAIT).is_some() && survivor.line_starting("ok ", WAIT).is_some());
     let status = Client::zenoh(&endpoint).unwrap();
     assert_eq!(status.status().unwrap().sessions.len(), 2);
-    victim.kill9();
-    let killed = Instant::now();
-    let freed = lumen_e2e::eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.iter().all(|x| x.session != victim_id)).unwrap_or(false));
-    let noticed = killed.elapsed();
-    assert!(freed, "the dead client's session {victim_id} was not freed");
+    let noticed = lumen_e2e::kill9_and_time_freeing(&mut victim, &status, victim_id).unwrap_or_else(|last| panic!("the dead client's session {victim_id} was not freed; last status: {last}"));
     eprintln!("kill -9 of a zenoh client: session freed after {noticed:?}");
     assert!(noticed < Duration::from_millis(1500), "noticed after {noticed:?}");
     for _ in 0..10 {

@@ -6,7 +6,8 @@
 //! - [`unique_prefix`], [`free_port`]: isolation between tests running at once.
 //! - [`shm_files`]: what a prefix left in `/dev/shm`.
 //! - [`TestScene`]: a small tube-and-rod scene whose rod presses into the wall, frame by frame.
-//! - [`client_loop`], [`spawn_client_role`]: client processes to kill.
+//! - [`client_loop`], [`spawn_client_role`]: client processes to kill, and
+//!   [`kill9_and_time_freeing`]: how soon the daemon frees a killed client's session.
 //! - [`closed_sessions_reopen`]: a session ended under its client, on either transport.
 
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
@@ -328,4 +329,27 @@ pub fn closed_sessions_reopen(s: &mut lumen_client::Session, other: &lumen_clien
     let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();
     assert!(matches!(lost, Error::Disconnected), "{lost:?}");
     reopened(s, 2, 2);
+}
+
+/// Kills `victim` (the client of `session`) with SIGKILL and waits up to 3 s for `status` to
+/// list the session no more: how long after the kill it was freed, or the last status seen.
+pub fn kill9_and_time_freeing(victim: &mut ChildProcess, status: &lumen_client::Client, session: u64) -> Result<Duration, String> {
+    victim.kill9();
+    let killed = Instant::now();
+    let mut last = String::new();
+    let freed = eventually(Duration::from_secs(3), || match status.status() {
+        Ok(s) => {
+            last = format!("sessions {:?}", s.sessions.iter().map(|x| x.session).collect::<Vec<_>>());
+            s.sessions.iter().all(|x| x.session != session)
+        }
+        Err(e) => {
+            last = format!("status failed: {e}");
+            false
+        }
+    });
+    if freed {
+        Ok(killed.elapsed())
+    } else {
+        Err(last)
+    }
 }
