@@ -199,19 +199,10 @@ impl Writer {
     /// Appends one frame as it was on the wire; `receive_ns` is when the recorder got it
     /// (nanoseconds since the Unix epoch, see [`wall_ns`]).
     pub fn frame(&mut self, header: &FrameHeader, state: &[f32], receive_ns: u64) -> Result<(), RecordingError> {
-        self.buf.clear();
-        self.buf.extend_from_slice(&header.to_bytes());
         let key = self.last.len() != state.len() || self.since_key + 1 >= KEY_EVERY;
-        if key {
-            self.buf.extend_from_slice(&0u32.to_le_bytes());
-            self.last.clear();
-            self.last.extend(state.iter().map(|v| v.to_bits()));
-            state.iter().for_each(|v| self.buf.extend_from_slice(&v.to_le_bytes()));
-            self.since_key = 0;
-        } else {
-            encode_delta(&mut self.last, state, &mut self.buf);
-            self.since_key += 1;
-        }
+        self.since_key = if key { 0 } else { self.since_key + 1 };
+        self.buf.clear();
+        encode_frame_message(header, &mut self.last, state, key, &mut self.buf);
         self.put(self.frames_channel, header.client_time_ns, receive_ns)?;
         self.written.frames += 1;
         Ok(())
@@ -384,6 +375,20 @@ fn is_short_or_not_mcap(path: &Path) -> bool {
     }
 }
 
+/// Appends the frame message of `header` and `state`: a key frame, or a delta against `last`
+/// (the floats of the message before, as bits); `last` becomes `state`.
+fn encode_frame_message(header: &FrameHeader, last: &mut Vec<u32>, state: &[f32], key: bool, out: &mut Vec<u8>) {
+    out.extend_from_slice(&header.to_bytes());
+    if key {
+        out.extend_from_slice(&0u32.to_le_bytes());
+        last.clear();
+        last.extend(state.iter().map(|v| v.to_bits()));
+        state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+    } else {
+        encode_delta(last, state, out);
+    }
+}
+
 /// Appends `1`, the run count and the runs of `state` that differ from `last` (bit for bit),
 /// and makes `last` equal to `state`.
 fn encode_delta(last: &mut [u32], state: &[f32], out: &mut Vec<u8>) {
@@ -505,14 +510,8 @@ mod tests {
     }
 
     fn message(h: &FrameHeader, last: &mut Vec<u32>, state: &[f32], key: bool) -> Vec<u8> {
-        let mut out = h.to_bytes().to_vec();
-        if key {
-            out.extend_from_slice(&0u32.to_le_bytes());
-            state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
-            *last = state.iter().map(|v| v.to_bits()).collect();
-        } else {
-            encode_delta(last, state, &mut out);
-        }
+        let mut out = Vec::new();
+        encode_frame_message(h, last, state, key, &mut out);
         out
     }
 
