@@ -62,6 +62,7 @@ struct Patch {
 }
 
 /// The wall at a patch point and its derivatives there (see the module's formulas).
+#[derive(Clone, Copy)]
 struct Local {
     s: V3,
     su: V3,
@@ -112,7 +113,6 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap) -> Gap {
     let floor = r0.dot(&s0.su).abs() <= FLOOR_COS * r0.norm() * s0.su.norm();
     let end = if floor {
         let up = descend(t, cache, p, start, s0, Some(FLOOR_STEP), tol);
-        let s0 = local(t, cache, start);
         let down = descend(t, cache, p, start, s0, Some(-FLOOR_STEP), tol);
         if down.d2 < up.d2 { down } else { up }
     } else {
