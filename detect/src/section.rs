@@ -177,7 +177,7 @@ impl TubeCache {
 
     /// Signed distance of `p` to ring `i`'s plane.
     #[inline]
-    fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
+    pub fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
         let r = self.ring(t, i);
         (p - t.point(i)).dot(&r.n)
     }

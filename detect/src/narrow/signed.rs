@@ -143,19 +143,34 @@ pub fn reacquire(t: &TubeView, cache: &mut TubeCache, bvh: &mut TubeBvh, p: &V3,
 fn second_opinion(t: &TubeView, cache: &mut TubeCache, p: &V3, first: Gap, refine: u32) -> Gap {
     // A scan of the planes near the first reading, not a BVH query: the BVH would be refit for
     // the whole tube on every frame with an escaped sample.
-    let lo = first.seg.saturating_sub(FOLD_REACH);
-    let hi = (first.seg + FOLD_REACH).min(t.segments() - 1);
     let mut best = first;
-    for i in (lo..=hi).filter(|&i| i != first.seg) {
-        // A walk of no step: `In` exactly when segment i's planes bracket the point.
-        if let Axial::In { seg, u } = cache.axial(t, p, i, 0) {
+    brackets(t, cache, p, first.seg, FOLD_REACH, |cache, seg, u| {
+        if seg != first.seg {
             let g = cache.gap(t, p, seg, u, None, refine);
             if g.sd < best.sd {
                 best = g;
             }
         }
-    }
+    });
     best
+}
+
+/// Calls `f(cache, seg, u)` for every segment within `reach` of `around` whose ring planes
+/// bracket `p`, in order along the tube: the segments where [`TubeCache::axial`] with no step
+/// finds `p` (`d_i >= 0 >= d_{i+1}`, `u = d_i / (d_i - d_{i+1})`), reading each ring's plane once.
+fn brackets(t: &TubeView, cache: &mut TubeCache, p: &V3, around: usize, reach: usize, mut f: impl FnMut(&mut TubeCache, usize, f32)) {
+    let lo = around.saturating_sub(reach);
+    let hi = (around + reach).min(t.segments() - 1);
+    let mut d0 = cache.plane(t, lo, p);
+    for i in lo..=hi {
+        let d1 = cache.plane(t, i + 1, p);
+        if !(d0 < 0.0) && !(d1 > 0.0) {
+            let den = d0 - d1;
+            let u = if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 };
+            f(cache, i, u);
+        }
+        d0 = d1;
+    }
 }
 
 /// Tunables of the signed narrow phase.
