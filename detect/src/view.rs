@@ -38,6 +38,13 @@ impl<'a> TubeView<'a> {
         V3::new(d[0], d[1], d[2])
     }
 
+    /// Ring `i`'s radial vectors, `x, y, z` one after the other (`3 * spokes` floats).
+    #[inline]
+    pub fn ring_spokes(&self, i: usize) -> &'a [f32] {
+        let o = (i * (self.spokes + 1) + 1) * 3;
+        &self.data[o..o + 3 * self.spokes]
+    }
+
     /// Segments (ring pairs).
     pub fn segments(&self) -> usize {
         self.rings - 1

@@ -51,6 +51,8 @@ pub struct Counters {
 #[derive(Debug, Clone, Default)]
 pub struct TubeBvh {
     pub bvh: ChainBvh,
+    /// The box of each ring's radial vectors this frame (see [`ring_box`]).
+    rings: Vec<Aabb>,
     fresh: bool,
 }
 
@@ -60,26 +62,33 @@ impl TubeBvh {
         self.fresh = false;
     }
 
-    /// Refits if stale.
+    /// Refits if stale. A refit reads the whole tube, so each ring's spokes are read once (a
+    /// ring bounds the segments on both its sides) in one pass along the state.
     pub fn ensure(&mut self, t: &TubeView, cache: &mut TubeCache) -> &ChainBvh {
         if !self.fresh {
-            self.bvh.build(t.segments(), |i| conservative_leaf(t, cache, i));
+            self.rings.clear();
+            self.rings.extend((0..t.rings).map(|i| ring_box(t, i)));
+            let rings = &self.rings;
+            self.bvh.build(t.segments(), |i| cache.cubic(t, i).bounds().minkowski(&rings[i].merge(&rings[i + 1])));
             self.fresh = true;
         }
         &self.bvh
     }
 }
 
-/// A box holding segment `i`'s whole wall: the Minkowski sum of the midline's Bezier hull and
-/// the box of both rings' radial vectors.
-pub fn conservative_leaf(t: &TubeView, cache: &mut TubeCache, i: usize) -> Aabb {
-    let mut spokes = Aabb::EMPTY;
-    for r in [i, i + 1] {
-        for k in 0..t.spokes {
-            spokes.add(t.spoke(r, k));
-        }
+/// The box of ring `i`'s radial vectors (relative to its control point).
+pub fn ring_box(t: &TubeView, i: usize) -> Aabb {
+    let mut b = Aabb::EMPTY;
+    for v in t.ring_spokes(i).chunks_exact(3) {
+        b.add(V3::new(v[0], v[1], v[2]));
     }
-    cache.cubic(t, i).bounds().minkowski(&spokes)
+    b
+}
+
+/// A box holding segment `i`'s whole wall: the Minkowski sum of the midline's Bezier hull and
+/// the box of both rings' radial vectors (what [`TubeBvh`] holds for leaf `i`).
+pub fn conservative_leaf(t: &TubeView, cache: &mut TubeCache, i: usize) -> Aabb {
+    cache.cubic(t, i).bounds().minkowski(&ring_box(t, i).merge(&ring_box(t, i + 1)))
 }
 
 /// Squared distance from `p` to the chord of segment `i`.
@@ -164,6 +173,8 @@ fn brackets(t: &TubeView, cache: &mut TubeCache, p: &V3, around: usize, reach: u
     let mut d0 = cache.plane(t, lo, p);
     for i in lo..=hi {
         let d1 = cache.plane(t, i + 1, p);
+        // Negated on purpose, as the walk's own tests: a NaN plane distance brackets.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(d0 < 0.0) && !(d1 > 0.0) {
             let den = d0 - d1;
             let u = if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 };
