@@ -100,6 +100,14 @@ impl Gap {
     }
 }
 
+/// Where a point at signed distances `d0` and `d1` from the planes of rings `i` and `i + 1`
+/// (`d0 >= 0 >= d1`: they bracket it) lies along segment `i`: `u = d0 / (d0 - d1)`.
+#[inline]
+fn between(d0: f32, d1: f32) -> f32 {
+    let den = d0 - d1;
+    if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 }
+}
+
 /// A unit vector perpendicular to unit `n`.
 #[inline]
 pub fn any_perpendicular(n: V3) -> V3 {
@@ -175,9 +183,9 @@ impl TubeCache {
         Ring { n, o, size }
     }
 
-    /// Signed distance of `p` to ring `i`'s plane.
+    /// Signed distance of `p` to ring `i`'s plane (positive on the side the midline goes on).
     #[inline]
-    pub fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
+    fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
         let r = self.ring(t, i);
         (p - t.point(i)).dot(&r.n)
     }
@@ -204,12 +212,29 @@ impl TubeCache {
                 d0 = d1;
                 d1 = self.plane(t, i + 1, p);
             } else {
-                let den = d0 - d1;
-                let u = if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 };
-                return Axial::In { seg: i, u };
+                return Axial::In { seg: i, u: between(d0, d1) };
             }
         }
         Axial::Lost
+    }
+
+    /// Calls `f(self, seg, u)` for every segment within `reach` of `around` whose ring planes
+    /// bracket `p`, in order along the tube: exactly the segments where [`TubeCache::axial`]
+    /// with no step finds `p`, at the same `u`, reading each ring's plane once (a walk per
+    /// segment would read two or three).
+    pub fn brackets(&mut self, t: &TubeView, p: &V3, around: usize, reach: usize, mut f: impl FnMut(&mut Self, usize, f32)) {
+        let lo = around.saturating_sub(reach);
+        let hi = (around + reach).min(t.segments() - 1);
+        let mut d0 = self.plane(t, lo, p);
+        for i in lo..=hi {
+            let d1 = self.plane(t, i + 1, p);
+            // The walk's "no step" case: neither behind ring i nor past ring i + 1 (so a NaN
+            // distance brackets, as it does there).
+            if !(d0 < 0.0 || d1 > 0.0) {
+                f(self, i, between(d0, d1));
+            }
+            d0 = d1;
+        }
     }
 
     /// The signed gap of `p` in segment `seg` at `u`, starting the sector walk at `k_guess`

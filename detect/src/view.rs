@@ -4,6 +4,7 @@
 //! scene far from the world origin loses no precision inside the pipeline: subtracting two
 //! nearby `f32` values is exact, and all further arithmetic is on small numbers.
 
+use crate::aabb::Aabb;
 use crate::V3;
 
 /// A tube: `rings` control points, each followed by `spokes` radial vectors.
@@ -38,11 +39,15 @@ impl<'a> TubeView<'a> {
         V3::new(d[0], d[1], d[2])
     }
 
-    /// Ring `i`'s radial vectors, `x, y, z` one after the other (`3 * spokes` floats).
-    #[inline]
-    pub fn ring_spokes(&self, i: usize) -> &'a [f32] {
+    /// The box of ring `i`'s radial vectors (relative to its control point), read in one pass
+    /// over the ring's floats.
+    pub fn spoke_box(&self, i: usize) -> Aabb {
         let o = (i * (self.spokes + 1) + 1) * 3;
-        &self.data[o..o + 3 * self.spokes]
+        let mut b = Aabb::EMPTY;
+        for v in self.data[o..o + 3 * self.spokes].chunks_exact(3) {
+            b.add(V3::new(v[0], v[1], v[2]));
+        }
+        b
     }
 
     /// Segments (ring pairs).

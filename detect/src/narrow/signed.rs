@@ -51,7 +51,7 @@ pub struct Counters {
 #[derive(Debug, Clone, Default)]
 pub struct TubeBvh {
     pub bvh: ChainBvh,
-    /// The box of each ring's radial vectors this frame (see [`ring_box`]).
+    /// The box of each ring's radial vectors this frame ([`TubeView::spoke_box`]).
     rings: Vec<Aabb>,
     fresh: bool,
 }
@@ -62,33 +62,19 @@ impl TubeBvh {
         self.fresh = false;
     }
 
-    /// Refits if stale. A refit reads the whole tube, so each ring's spokes are read once (a
-    /// ring bounds the segments on both its sides) in one pass along the state.
+    /// Refits if stale. Leaf `i` holds segment `i`'s whole wall: the Minkowski sum of the
+    /// midline's Bezier hull and the box of both rings' radial vectors. A refit reads the whole
+    /// tube, so each ring's spokes are read once (a ring bounds the segments on both its sides).
     pub fn ensure(&mut self, t: &TubeView, cache: &mut TubeCache) -> &ChainBvh {
         if !self.fresh {
             self.rings.clear();
-            self.rings.extend((0..t.rings).map(|i| ring_box(t, i)));
+            self.rings.extend((0..t.rings).map(|i| t.spoke_box(i)));
             let rings = &self.rings;
             self.bvh.build(t.segments(), |i| cache.cubic(t, i).bounds().minkowski(&rings[i].merge(&rings[i + 1])));
             self.fresh = true;
         }
         &self.bvh
     }
-}
-
-/// The box of ring `i`'s radial vectors (relative to its control point).
-pub fn ring_box(t: &TubeView, i: usize) -> Aabb {
-    let mut b = Aabb::EMPTY;
-    for v in t.ring_spokes(i).chunks_exact(3) {
-        b.add(V3::new(v[0], v[1], v[2]));
-    }
-    b
-}
-
-/// A box holding segment `i`'s whole wall: the Minkowski sum of the midline's Bezier hull and
-/// the box of both rings' radial vectors (what [`TubeBvh`] holds for leaf `i`).
-pub fn conservative_leaf(t: &TubeView, cache: &mut TubeCache, i: usize) -> Aabb {
-    cache.cubic(t, i).bounds().minkowski(&ring_box(t, i).merge(&ring_box(t, i + 1)))
 }
 
 /// Squared distance from `p` to the chord of segment `i`.
@@ -153,7 +139,7 @@ fn second_opinion(t: &TubeView, cache: &mut TubeCache, p: &V3, first: Gap, refin
     // A scan of the planes near the first reading, not a BVH query: the BVH would be refit for
     // the whole tube on every frame with an escaped sample.
     let mut best = first;
-    brackets(t, cache, p, first.seg, FOLD_REACH, |cache, seg, u| {
+    cache.brackets(t, p, first.seg, FOLD_REACH, |cache, seg, u| {
         if seg != first.seg {
             let g = cache.gap(t, p, seg, u, None, refine);
             if g.sd < best.sd {
@@ -162,26 +148,6 @@ fn second_opinion(t: &TubeView, cache: &mut TubeCache, p: &V3, first: Gap, refin
         }
     });
     best
-}
-
-/// Calls `f(cache, seg, u)` for every segment within `reach` of `around` whose ring planes
-/// bracket `p`, in order along the tube: the segments where [`TubeCache::axial`] with no step
-/// finds `p` (`d_i >= 0 >= d_{i+1}`, `u = d_i / (d_i - d_{i+1})`), reading each ring's plane once.
-fn brackets(t: &TubeView, cache: &mut TubeCache, p: &V3, around: usize, reach: usize, mut f: impl FnMut(&mut TubeCache, usize, f32)) {
-    let lo = around.saturating_sub(reach);
-    let hi = (around + reach).min(t.segments() - 1);
-    let mut d0 = cache.plane(t, lo, p);
-    for i in lo..=hi {
-        let d1 = cache.plane(t, i + 1, p);
-        // Negated on purpose, as the walk's own tests: a NaN plane distance brackets.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(d0 < 0.0) && !(d1 > 0.0) {
-            let den = d0 - d1;
-            let u = if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 };
-            f(cache, i, u);
-        }
-        d0 = d1;
-    }
 }
 
 /// Tunables of the signed narrow phase.

@@ -56,13 +56,11 @@ impl Thesis {
         // Published leaves: the tips of both rings, rebuilt from scratch every frame. Each
         // ring's box is computed once and shared by its two segments.
         self.ring_boxes.clear();
+        // The tips' box is the spokes' box moved to the ring's point (rounding is monotonic, so
+        // the very same floats as the box of the tips themselves).
         self.ring_boxes.extend((0..t.rings).map(|r| {
             let c = t.point(r);
-            let mut b = Aabb::EMPTY;
-            for k in 0..t.spokes {
-                b.add(c + t.spoke(r, k));
-            }
-            b
+            Aabb { min: c, max: c }.minkowski(&t.spoke_box(r))
         }));
         let ring_boxes = &self.ring_boxes;
         self.tube_bvh.build(segs, |i| ring_boxes[i].merge(&ring_boxes[i + 1]));
