@@ -30,13 +30,27 @@
 //! back across it by the next patch's step, so the coordinate that would cross is pinned there
 //! and the descent goes on along the crease.
 //!
-//! Every accepted step brings `S` nearer, so the result is never farther than `W0`: the
-//! distance returned is that of a point on the wall, exact to the descent's tolerance where the
-//! minimum is local to `W0`'s neighbourhood. The side (inside or outside) stays the section's:
-//! a point's side does not depend on which wall point is nearest, and the section test decides
-//! it robustly. The normal is the direction between the point and its nearest wall point (the
-//! gradient of the distance, continuous as the point moves), oriented outward. A descent that
-//! ends where the wall faces the other way (a fold of the surface) is not taken.
+//! **Seeds.** The distance to a curved wall has several local minima where the point sits in a
+//! pocket (walls on several sides) or faces a fold ahead of its own section (the end of the
+//! scope against a fold's flank: the flank is within the scope's radius along the tube but in
+//! no section the sample's centre lies in). So a second descent starts from the nearest of a
+//! few seeds on a wall facing the point: the strips beside the foot's in the point's own
+//! section, and the foot's strip and its neighbours in the sections half the rod's radius and
+//! the whole radius ahead and behind along the tube ([`SEEDS`]). The nearer end wins.
+//!
+//! **Never a contact without a wall.** Every accepted step brings `S` nearer, so the result is
+//! never farther than `W0`; and the distance returned is always that of a point on the wall
+//! (`W0` at worst), never the tangent plane's: where a fold's flank is extrapolated past its
+//! crest, the tangent plane passes millimetres nearer than any wall point, and a contact read
+//! from it pushes the scope away from a wall that is not there (into the one that is).
+//!
+//! **Side.** Inside or outside is the section's sector test ([`Gap::outside`]): which side of
+//! its sector's wall edge the point lies in its own section. A point's side does not depend on
+//! which wall point is nearest; the tangent plane's sign does, and flips on a steep flank. The
+//! normal is the direction between the point and its nearest wall point (the gradient of the
+//! distance, continuous as the point moves), oriented outward. A descent that ends where the
+//! wall faces the other way (a fold of the surface) is not taken: the foot `W0` stands, at its
+//! own distance.
 
 use crate::section::{Axial, Gap, TubeCache};
 use crate::view::TubeView;
@@ -98,20 +112,23 @@ struct End {
 }
 
 /// The nearest wall point to `p` from the section reading `from`: `from` with `sd`, `normal`,
-/// `wall` and the patch coordinates (`seg`, `u`, `k`, `l`) of that point; `from` itself where
-/// the descent finds nothing nearer than its foot or ends on a wall facing the other way.
+/// `wall` and the patch coordinates (`seg`, `u`, `k`, `l`) of that point, `sd` signed by the
+/// section's side ([`Gap::outside`]); where the descent ends on a wall facing the other way,
+/// `from` with `sd` the distance to its foot on the wall.
 ///
 /// Where the foot lies on the floor of a fold's valley or the crest of a fold (the wall runs
 /// nearly at right angles to the point there, within [`FLOOR_COS`]), which way along the tube
 /// the nearest flank lies is not told by the foot's own slope: both ways are tried.
-pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap) -> Gap {
+///
+/// `reach`: how far along the tube the seeds of the second descent go (the rod's radius, in the
+/// scene's unit; 0: no seeds).
+pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32) -> Gap {
     let start = Patch { seg: from.seg, k: from.k, u: from.u.clamp(0.0, 1.0), l: from.l.clamp(0.0, 1.0) };
     let s0 = local(t, cache, start);
     let r0 = p - s0.s;
-    let start2 = r0.norm_squared();
     let tol = 1e-4 * from.size.max(1e-6);
     let floor = r0.dot(&s0.su).abs() <= FLOOR_COS * r0.norm() * s0.su.norm();
-    let end = if floor {
+    let mut end = if floor {
         let up = descend(t, cache, p, start, s0, Some(FLOOR_STEP), tol);
         let down = descend(t, cache, p, start, s0, Some(-FLOOR_STEP), tol);
         if down.d2 < up.d2 { down } else { up }
@@ -122,7 +139,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap) -> Gap {
             Axial::In { seg, u } if seg != start.seg || (u - start.u).abs() > 0.05 => {
                 let alt = Patch { seg, u, ..start };
                 let sa = local(t, cache, alt);
-                if (p - sa.s).norm_squared() < start2 {
+                if (p - sa.s).norm_squared() < r0.norm_squared() {
                     (alt, sa)
                 } else {
                     (start, s0)
@@ -132,12 +149,44 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap) -> Gap {
         };
         descend(t, cache, p, start, s0, None, tol)
     };
-    let End { at, here, d2 } = end;
-    if d2 >= start2 {
-        return from;
+    let side = if from.outside { 1.0 } else { -1.0 };
+    // The second descent, from the nearest seed (see the module's "Seeds"), where that is
+    // nearer than the first ended.
+    if reach > 0.0 {
+        let b = t.spokes;
+        let axis = (cache.ring(t, from.seg).n * (1.0 - start.u) + cache.ring(t, from.seg + 1).n * start.u).try_normalize(0.0);
+        let mut seed: Option<(Patch, Local, f32)> = None;
+        let mut consider = |cache: &mut TubeCache, seg: usize, u: f32| {
+            for (k, l) in [((start.k + b - 1) % b, 0.5), (start.k, start.l), ((start.k + 1) % b, 0.5)] {
+                let at = Patch { seg, u, k, l };
+                let here = local(t, cache, at);
+                let r = p - here.s;
+                let d2 = r.norm_squared();
+                // Only a wall facing the point's side: the back of a fold's crest is nearer
+                // than its front from some places, and a descent from it ends on the crest.
+                let facing = r.dot(&(here.sl.cross(&here.su) * cache.ring(t, seg).o)) * side > 0.0;
+                if facing && d2 < end.d2 && seed.as_ref().is_none_or(|s| d2 < s.2) {
+                    seed = Some((at, here, d2));
+                }
+            }
+        };
+        consider(cache, start.seg, start.u);
+        if let Some(axis) = axis {
+            for f in SEEDS {
+                if let Axial::In { seg, u } = cache.axial(t, &(p + axis * (reach * f)), from.seg, SEED_WINDOW) {
+                    consider(cache, seg, u);
+                }
+            }
+        }
+        if let Some((at, here, _)) = seed {
+            let other = descend(t, cache, p, at, here, None, tol);
+            if other.d2 < end.d2 {
+                end = other;
+            }
+        }
     }
+    let End { at, here, d2 } = end;
     let dist = d2.sqrt();
-    let side = if from.sd > 0.0 { 1.0 } else { -1.0 };
     let o = cache.ring(t, at.seg).o;
     let wall_out = here.sl.cross(&here.su) * o;
     let normal = if dist > tol {
@@ -149,12 +198,19 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap) -> Gap {
             None => return from,
         }
     };
-    // The wall there must face the way the side says (not a fold seen from behind).
+    // The wall there must face the way the side says (not a fold seen from behind); where it
+    // does not, the section's own reading stands, at the distance of its foot on the wall.
     if normal.dot(&wall_out) <= 0.0 {
-        return from;
+        return Gap { sd: side * (p - s0.s).norm(), ..from };
     }
     Gap { sd: side * dist, normal, wall: here.s, seg: at.seg, u: at.u, k: at.k, l: at.l, ..from }
 }
+
+/// Where the second descent of [`nearest`] may start, in units of its `reach` along the tube.
+pub const SEEDS: [f32; 4] = [-1.0, -0.5, 0.5, 1.0];
+
+/// Ring planes the walk to a seed's section may cross.
+const SEED_WINDOW: usize = 16;
 
 /// Descends from `at` (where the wall is `here`) as the module says; `first_du`, if given,
 /// replaces the first step (along the tube only).

@@ -90,6 +90,10 @@ pub struct Gap {
     pub rho2: f32,
     /// Size scale of the section (largest sampled spoke of its two rings).
     pub size: f32,
+    /// Whether the point lies outside the section's wall edge in its sector, seen along the
+    /// section's normal (the sector test). Where the wall slopes steeply along the tube, this
+    /// side holds where the sign of `sd` (that of a tangent plane) may not.
+    pub outside: bool,
 }
 
 impl Gap {
@@ -403,14 +407,14 @@ impl TubeCache {
                 }
             }
         }
+        let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
         if let Some(perp) = vertex {
-            let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
             let sign = if inner > 0.0 { -1.0 } else { 1.0 };
             best.1 = sign;
             best.4 = if best.0 > 1e-6 * scale { perp / best.0 * sign } else { radial() };
         }
         let d_mid2 = (p - c).norm_squared();
         let (d, sign, k, l, normal, wall) = best;
-        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star, rho2: d_mid2, size: scale }
+        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star, rho2: d_mid2, size: scale, outside: !(inner > 0.0) }
     }
 }

@@ -190,6 +190,15 @@ fn with_nearest(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
     signed_with(colon, scope, |d| d.set_nearest(on))
 }
 
+/// As [`with_nearest`] with a contact margin of 2 (as the colonoscopy of `lumen-sim` runs).
+fn with_nearest_margin(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
+    let mut scene = interior(colon.clone(), scope.clone(), 4, Method::Signed);
+    scene.margin = 2.0;
+    let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
+    d.set_nearest(on);
+    d.detect(&scene.state()).unwrap().to_vec()
+}
+
 #[test]
 fn nearest_wall_points_on_folds() {
     // Folds 2 deep every 40 (the wall sloped up to 17 degrees along the tube): the section's own
@@ -215,4 +224,56 @@ fn nearest_wall_points_on_folds() {
     let off = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, false), 0.05);
     assert!(on.worst < off.worst, "sharp folds: nearest {} mm, section {} mm", on.worst, off.worst);
     assert!(on.missed.iter().all(|s| off.missed.contains(s)), "sharp folds: missed {:?}, section only {:?}", on.missed, off.missed);
+}
+
+/// A straight tube along +x (rings every 1 mm, radius 20) with one sharp ring fold: the radius
+/// falls to 9 over x = 40..43 and rises back over 43..46, its flanks at 75 degrees to the axis.
+fn ring_fold() -> Tube {
+    let radius = |x: f32| if x <= 40.0 || x >= 46.0 { 20.0 } else if x <= 43.0 { 20.0 - 11.0 * (x - 40.0) / 3.0 } else { 9.0 + 11.0 * (x - 43.0) / 3.0 };
+    tube(81, 32, |i| [i as f32, 0.0, 0.0], |i, k| {
+        let a = k as f32 * TAU / 32.0;
+        let r = radius(i as f32);
+        [0.0, r * a.cos(), r * a.sin()]
+    })
+}
+
+#[test]
+fn nearest_sees_a_fold_ahead_of_the_scope_end() {
+    // The scope ends at x = 37, 11 off the axis: its own section is 20 wide, so its section
+    // reading puts it 2.5 clear, but the fold's front flank lies 5.26 from its centre (in the
+    // (x, rho) plane: the distance of (37, 11) to the line from (40, 20) to (43, 9)), inside its
+    // radius of 6.5. No other sample's section holds that flank.
+    let colon = ring_fold();
+    let scope = line([5.0, 11.0, 0.0], [37.0, 11.0, 0.0], 9, 6.5);
+    let last = samples(&scope, 4).len() as u32 - 1;
+    let want = 6.5 - 60.0 / 130f32.sqrt();
+    let on = with_nearest_margin(&colon, &scope, true);
+    let a = agree(&colon, &scope, 4, &on, 0.05);
+    assert!(a.missed.is_empty(), "nearest missed {:?}", a.missed);
+    assert!(a.worst < 0.05, "nearest: depth error {}", a.worst);
+    let end = on.iter().find(|c| c.sample == last).expect("a contact at the scope's end");
+    assert!((end.depth - want).abs() < 0.05, "end depth {} (want {want})", end.depth);
+    assert!(end.normal[0] > 0.9, "the fold's flank faces the end: normal {:?}", end.normal);
+    // The section readings put the last two samples 2.5 clear of their own sections' wall,
+    // beyond the margin: both are missed.
+    let off = agree(&colon, &scope, 4, &with_nearest_margin(&colon, &scope, false), 0.05);
+    assert_eq!(off.missed, vec![last - 1, last], "section readings");
+    // The end is read even where its section puts it beyond the margin.
+    let bare = with_nearest(&colon, &scope, true);
+    assert!(bare.iter().any(|c| c.sample == last && (c.depth - want).abs() < 0.05), "no margin: {bare:?}");
+}
+
+#[test]
+fn nearest_reports_no_wall_past_a_fold_crest() {
+    // A scope along the axis, 2 off it, through the fold: its surface passes 0.5 inside the
+    // crest. Past the crest a section on a flank reads the distance to that flank's tangent
+    // plane, which extends through the lumen (at x = 44 it passes 2.8 from the sample, whose
+    // nearest wall point, the crest, is 7.1 away): a contact with no wall there.
+    let colon = ring_fold();
+    let scope = line([20.0, 2.0, 0.0], [70.0, 2.0, 0.0], 11, 6.5);
+    let off = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, false), 0.05);
+    assert!(off.reported > 0 && off.worst > 2.0, "section readings: {} contacts, worst depth error {}", off.reported, off.worst);
+    let on = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, true), 0.05);
+    assert_eq!(on.reported, 0, "nearest: contacts where the wall is 0.5 away");
+    assert!(on.missed.is_empty());
 }

@@ -249,8 +249,11 @@ pub fn interior(
         shift = if tr.valid && walked { g.seg as isize - tr.seg as isize } else { 0 };
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
-        if params.nearest && g.sd + r > -NEAREST_REACH * emit.margin {
-            g = nearest(t, cache, &p, g);
+        // The rod's ends are read whatever their section says: the wall ahead of an end (a
+        // fold's flank within the rod's radius along the tube) lies in no section a sample
+        // reads, where along the rod the next sample's own section holds it.
+        if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || s == 0 || s + 1 == rod.len()) {
+            g = nearest(t, cache, &p, g, r);
         }
         let depth = g.sd + r;
         if depth > -emit.margin {
@@ -312,7 +315,7 @@ pub fn exterior(
     for (s, &(depth, g)) in best.iter().enumerate() {
         let r = rod.radius[s];
         let (depth, g) = if params.nearest && depth > -NEAREST_REACH * emit.margin {
-            let g = nearest(t, cache, &rod.pos[s], g);
+            let g = nearest(t, cache, &rod.pos[s], g, 0.0);
             (r - g.sd, g)
         } else {
             (depth, g)

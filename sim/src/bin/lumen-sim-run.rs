@@ -66,9 +66,10 @@ struct Args {
     /// Axial re-projections of the detector.
     #[arg(long)]
     refine: Option<u32>,
-    /// Contacts at the nearest point of the continuous wall (the spec's `nearest`).
+    /// Contacts from the sections' own readings, not moved to the nearest point of the
+    /// continuous wall (the spec's `nearest` off).
     #[arg(long)]
-    nearest: bool,
+    sections: bool,
     #[arg(long)]
     stretch_passes: Option<u32>,
     /// Speed limit of the rod's points, mm/s.
@@ -103,7 +104,7 @@ fn main() {
     if let Some(v) = a.relax { sim.relax_s = v }
     if let Some(v) = a.substeps { sim.substeps = v }
     if let Some(v) = a.refine { sim.refine = v }
-    sim.nearest |= a.nearest;
+    sim.nearest &= !a.sections;
     if let Some(v) = a.stretch_passes { sim.stretch_passes = v }
     if let Some(v) = a.max_speed { sim.max_speed_mm_s = v }
     if let Some(v) = a.margin { sim.margin_mm = v }
