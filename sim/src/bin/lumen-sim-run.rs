@@ -72,6 +72,9 @@ struct Args {
     sections: bool,
     #[arg(long)]
     stretch_passes: Option<u32>,
+    /// Contact projections per substep.
+    #[arg(long)]
+    contact_passes: Option<u32>,
     /// Speed limit of the rod's points, mm/s.
     #[arg(long)]
     max_speed: Option<f64>,
@@ -106,6 +109,7 @@ fn main() {
     if let Some(v) = a.refine { sim.refine = v }
     sim.nearest &= !a.sections;
     if let Some(v) = a.stretch_passes { sim.stretch_passes = v }
+    if let Some(v) = a.contact_passes { sim.contact_passes = v }
     if let Some(v) = a.max_speed { sim.max_speed_mm_s = v }
     if let Some(v) = a.margin { sim.margin_mm = v }
     let wall = &mut config.wall;
