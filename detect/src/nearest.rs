@@ -104,6 +104,15 @@ fn local(t: &TubeView, cache: &mut TubeCache, at: Patch) -> Local {
     }
 }
 
+impl Local {
+    /// The wall's outward normal here, unnormalised (`o`: the ring's spoke orientation, see
+    /// [`crate::section::Ring::o`]).
+    #[inline]
+    fn outward(&self, o: f32) -> V3 {
+        self.sl.cross(&self.su) * o
+    }
+}
+
 /// Where a descent ended: its patch coordinates, the wall there and the squared distance.
 struct End {
     at: Patch,
@@ -164,7 +173,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
                 let d2 = r.norm_squared();
                 // Only a wall facing the point's side: the back of a fold's crest is nearer
                 // than its front from some places, and a descent from it ends on the crest.
-                let facing = r.dot(&(here.sl.cross(&here.su) * cache.ring(t, seg).o)) * side > 0.0;
+                let facing = r.dot(&here.outward(cache.ring(t, seg).o)) * side > 0.0;
                 if facing && d2 < end.d2 && seed.as_ref().is_none_or(|s| d2 < s.2) {
                     seed = Some((at, here, d2));
                 }
@@ -187,8 +196,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
     }
     let End { at, here, d2 } = end;
     let dist = d2.sqrt();
-    let o = cache.ring(t, at.seg).o;
-    let wall_out = here.sl.cross(&here.su) * o;
+    let wall_out = here.outward(cache.ring(t, at.seg).o);
     let normal = if dist > tol {
         // Outward: from the wall to an outside point, from an inside point to the wall.
         (p - here.s) * (side / dist)

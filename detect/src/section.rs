@@ -407,14 +407,17 @@ impl TubeCache {
                 }
             }
         }
+        // The sector test: which side of its sector's wall edge the point lies, in the section
+        // (a NaN, from a degenerate section, counts as outside).
         let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
+        let outside = inner <= 0.0 || inner.is_nan();
         if let Some(perp) = vertex {
-            let sign = if inner > 0.0 { -1.0 } else { 1.0 };
+            let sign = if outside { 1.0 } else { -1.0 };
             best.1 = sign;
             best.4 = if best.0 > 1e-6 * scale { perp / best.0 * sign } else { radial() };
         }
         let d_mid2 = (p - c).norm_squared();
         let (d, sign, k, l, normal, wall) = best;
-        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star, rho2: d_mid2, size: scale, outside: !(inner > 0.0) }
+        Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star, rho2: d_mid2, size: scale, outside }
     }
 }

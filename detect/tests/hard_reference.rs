@@ -5,7 +5,7 @@ mod common;
 use common::*;
 use lumen_detect::samples::RodSamples;
 use lumen_detect::view::RodView;
-use lumen_detect::{Contact, Method, Rod, Tube, V3};
+use lumen_detect::{Contact, Method, Rod, Scene, Tube, V3};
 use lumen_oracle::Reference;
 use std::f32::consts::{FRAC_1_SQRT_2, PI, TAU};
 
@@ -149,7 +149,11 @@ fn haustral(amp: f32, period: f32) -> (Tube, Rod) {
 
 /// One frame of the signed method at x = 4, with `set` applied to the detector first.
 fn signed_with(colon: &Tube, scope: &Rod, set: impl FnOnce(&mut lumen_detect::Detector)) -> Vec<Contact> {
-    let scene = interior(colon.clone(), scope.clone(), 4, Method::Signed);
+    detect_with(&interior(colon.clone(), scope.clone(), 4, Method::Signed), set)
+}
+
+/// One frame of `scene`, with `set` applied to the detector first.
+fn detect_with(scene: &Scene, set: impl FnOnce(&mut lumen_detect::Detector)) -> Vec<Contact> {
     let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
     set(&mut d);
     d.detect(&scene.state()).unwrap().to_vec()
@@ -194,9 +198,7 @@ fn with_nearest(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
 fn with_nearest_margin(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
     let mut scene = interior(colon.clone(), scope.clone(), 4, Method::Signed);
     scene.margin = 2.0;
-    let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
-    d.set_nearest(on);
-    d.detect(&scene.state()).unwrap().to_vec()
+    detect_with(&scene, |d| d.set_nearest(on))
 }
 
 #[test]
