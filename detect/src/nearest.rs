@@ -114,11 +114,37 @@ impl Local {
 }
 
 /// Where a descent ended: its patch coordinates, the wall there and the squared distance.
+#[derive(Clone, Copy)]
 struct End {
     at: Patch,
     here: Local,
     d2: f32,
+    /// Whether it stopped at a minimum (no step brings `S` nearer, or the last was below
+    /// tolerance), not for want of steps.
+    settled: bool,
 }
+
+/// What [`nearest`] found for one point.
+#[derive(Debug, Clone, Copy)]
+pub struct Near {
+    /// The nearest wall point (or the section's own reading, see [`nearest`]).
+    pub first: Gap,
+    /// Other walls within the `within` distance [`nearest`] was given, nearest first, each
+    /// facing the point from a direction more than [`OTHER_ANGLE_DEG`] from the first's and from
+    /// each other's: the point wedged in a corner (the scope's end between the side wall and a
+    /// fold ahead of it) or a pocket. Inside points only.
+    pub others: [Option<Gap>; MAX_OTHERS],
+}
+
+/// Walls besides the nearest that [`nearest`] reports at most: a pocket of the real colon
+/// holds the scope's end between three or four (the side wall, a fold's front, the valley
+/// between them).
+pub const MAX_OTHERS: usize = 3;
+
+/// Two local minima of the distance to the wall count as two walls when their normals differ
+/// by more than this, degrees: the side wall and a fold's front meet at about a right angle; a
+/// descent that slides back to the first wall ends within a few degrees of it.
+pub const OTHER_ANGLE_DEG: f32 = 30.0;
 
 /// The nearest wall point to `p` from the section reading `from`: `from` with `sd`, `normal`,
 /// `wall` and the patch coordinates (`seg`, `u`, `k`, `l`) of that point, `sd` signed by the
@@ -130,17 +156,25 @@ struct End {
 /// the nearest flank lies is not told by the foot's own slope: both ways are tried.
 ///
 /// `reach`: how far along the tube the seeds of the second descent go (the rod's radius, in the
-/// scene's unit; 0: no seeds).
-pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32) -> Gap {
+/// scene's unit; 0: no seeds). `within`: for a point inside the wall, the distance (scene's
+/// unit) within which other walls are sought and reported ([`Near::others`]; 0: none): the
+/// losing ends of the descents where they are other walls, else descents from the nearest
+/// seeds facing the point from another direction. `scan`: also descend from the pockets of the
+/// wall around the point ([`scan_pockets`]; for the rod's ends, see there).
+pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32, within: f32, scan: bool) -> Near {
     let start = Patch { seg: from.seg, k: from.k, u: from.u.clamp(0.0, 1.0), l: from.l.clamp(0.0, 1.0) };
     let s0 = local(t, cache, start);
     let r0 = p - s0.s;
     let tol = 1e-4 * from.size.max(1e-6);
     let floor = r0.dot(&s0.su).abs() <= FLOOR_COS * r0.norm() * s0.su.norm();
+    // The ends of descents that lost to `end`: candidates for other walls.
+    let mut spare: [Option<End>; 2 + SCAN_SEEDS] = [None; 2 + SCAN_SEEDS];
     let mut end = if floor {
-        let up = descend(t, cache, p, start, s0, Some(FLOOR_STEP), tol);
-        let down = descend(t, cache, p, start, s0, Some(-FLOOR_STEP), tol);
-        if down.d2 < up.d2 { down } else { up }
+        let up = descend(t, cache, p, start, s0, Some(FLOOR_STEP), tol, ITERATIONS);
+        let down = descend(t, cache, p, start, s0, Some(-FLOOR_STEP), tol, ITERATIONS);
+        let (win, lose) = if down.d2 < up.d2 { (down, up) } else { (up, down) };
+        spare[0] = Some(lose);
+        win
     } else {
         // The foot on the wall's tangent plane lies, to first order, as far along the tube as
         // the nearest point: start there where that is nearer (fewer steps across rings).
@@ -156,16 +190,19 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
             }
             _ => (start, s0),
         };
-        descend(t, cache, p, start, s0, None, tol)
+        descend(t, cache, p, start, s0, None, tol, ITERATIONS)
     };
     let side = if from.outside { 1.0 } else { -1.0 };
-    // The second descent, from the nearest seed (see the module's "Seeds"), where that is
-    // nearer than the first ended.
+    let within = if from.outside { 0.0 } else { within };
+    // Seeds facing the point (see the module's "Seeds"), nearer than the first descent ended
+    // or, where other walls are sought, near enough to descend to one.
+    let mut seeds = Seeds { at: [None; SEED_SLOTS], n: 0 };
+    let mut n_own = 0;
     if reach > 0.0 {
         let b = t.spokes;
+        let keep2 = if within > 0.0 { end.d2.max((within + reach) * (within + reach)) } else { end.d2 };
         let axis = (cache.ring(t, from.seg).n * (1.0 - start.u) + cache.ring(t, from.seg + 1).n * start.u).try_normalize(0.0);
-        let mut seed: Option<(Patch, Local, f32)> = None;
-        let mut consider = |cache: &mut TubeCache, seg: usize, u: f32| {
+        let consider = |cache: &mut TubeCache, seeds: &mut Seeds, seg: usize, u: f32| {
             for (k, l) in [((start.k + b - 1) % b, 0.5), (start.k, start.l), ((start.k + 1) % b, 0.5)] {
                 let at = Patch { seg, u, k, l };
                 let here = local(t, cache, at);
@@ -174,44 +211,188 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
                 // Only a wall facing the point's side: the back of a fold's crest is nearer
                 // than its front from some places, and a descent from it ends on the crest.
                 let facing = r.dot(&here.outward(cache.ring(t, seg).o)) * side > 0.0;
-                if facing && d2 < end.d2 && seed.as_ref().is_none_or(|s| d2 < s.2) {
-                    seed = Some((at, here, d2));
+                if facing && d2 < keep2 && seeds.n < SEED_SLOTS {
+                    seeds.at[seeds.n] = Some((at, here, d2));
+                    seeds.n += 1;
                 }
             }
         };
-        consider(cache, start.seg, start.u);
+        consider(cache, &mut seeds, start.seg, start.u);
+        n_own = seeds.n;
         if let Some(axis) = axis {
             for f in SEEDS {
                 if let Axial::In { seg, u } = cache.axial(t, &(p + axis * (reach * f)), from.seg, SEED_WINDOW) {
-                    consider(cache, seg, u);
+                    consider(cache, &mut seeds, seg, u);
                 }
             }
         }
-        if let Some((at, here, _)) = seed {
-            let other = descend(t, cache, p, at, here, None, tol);
+        // The second descent, from the nearest seed, where that is nearer than the first ended.
+        let nearest_seed = (0..seeds.n).filter_map(|i| seeds.at[i].map(|s| (i, s))).filter(|(_, s)| s.2 < end.d2).min_by(|a, b| a.1 .2.total_cmp(&b.1 .2));
+        if let Some((i, (at, here, _))) = nearest_seed {
+            seeds.at[i] = None;
+            let other = descend(t, cache, p, at, here, None, tol, ITERATIONS);
             if other.d2 < end.d2 {
-                end = other;
+                spare[1] = Some(std::mem::replace(&mut end, other));
+            } else {
+                spare[1] = Some(other);
+            }
+        }
+        if scan {
+            // The rod's end: a descent from each pocket of the wall around it (see [`scan`]).
+            let found = scan_pockets(t, cache, p, &from, start.k, reach + within, side);
+            for (slot, (at, here)) in spare[2..].iter_mut().zip(found.into_iter().flatten()) {
+                let other = descend(t, cache, p, at, here, None, tol, OTHER_ITERATIONS);
+                *slot = Some(if other.d2 < end.d2 { std::mem::replace(&mut end, other) } else { other });
             }
         }
     }
-    let End { at, here, d2 } = end;
-    let dist = d2.sqrt();
-    let wall_out = here.outward(cache.ring(t, at.seg).o);
-    let normal = if dist > tol {
-        // Outward: from the wall to an outside point, from an inside point to the wall.
-        (p - here.s) * (side / dist)
-    } else {
-        match wall_out.try_normalize(0.0) {
-            Some(n) => n,
-            None => return from,
-        }
+    let Some((normal, dist)) = judge(t, cache, p, &end, side, tol) else {
+        // Not a wall facing the way the side says (a fold seen from behind): the section's own
+        // reading stands, at the distance of its foot on the wall.
+        return Near { first: Gap { sd: side * (p - s0.s).norm(), ..from }, others: [None; MAX_OTHERS] };
     };
-    // The wall there must face the way the side says (not a fold seen from behind); where it
-    // does not, the section's own reading stands, at the distance of its foot on the wall.
-    if normal.dot(&wall_out) <= 0.0 {
-        return Gap { sd: side * (p - s0.s).norm(), ..from };
+    let first = gap_at(&from, &end, normal, side * dist);
+    if within <= 0.0 {
+        return Near { first, others: [None; MAX_OTHERS] };
     }
-    Gap { sd: side * dist, normal, wall: here.s, seg: at.seg, u: at.u, k: at.k, l: at.l, ..from }
+    let cos = OTHER_ANGLE_DEG.to_radians().cos();
+    // A wall within reach: only a minimum (a descent cut short ends on a slope, at no wall the
+    // point faces), facing the point.
+    let wall_of = |cache: &mut TubeCache, e: End| {
+        if !e.settled {
+            return None;
+        }
+        let (n, d) = judge(t, cache, p, &e, side, tol)?;
+        (d < within).then_some((e, n, d))
+    };
+    let mut found: [Option<(End, V3, f32)>; CANDIDATES] = [None; CANDIDATES];
+    let mut n_found = 0;
+    for e in spare.into_iter().flatten() {
+        if let Some(w) = wall_of(cache, e) {
+            found[n_found] = Some(w);
+            n_found += 1;
+        }
+    }
+    // Where the descents so far found no other wall: descents from the seeds along the tube, on
+    // the foot's own strip, on a wall turned from the first and facing the point from another
+    // direction, nearest first, one per section (the neighbouring strips' seeds lie on the
+    // first wall's sides, and a seed on a wall running on as the first's does, a smooth tube's,
+    // is the first wall: descents from them slide back to it).
+    for _ in 0..OTHER_TRIES {
+        if found[..n_found].iter().flatten().any(|w| w.1.dot(&normal) < cos) {
+            break;
+        }
+        let other_way = seeds.at[n_own..seeds.n]
+            .iter()
+            .flatten()
+            .filter(|s| s.0.k == start.k && (p - s.1.s).dot(&normal) * side < cos * s.2.sqrt() && turned(&s.1.outward(cache.ring(t, s.0.seg).o), &normal, cos))
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        let Some(&(at, here, _)) = other_way else { break };
+        for s in seeds.at[n_own..seeds.n].iter_mut() {
+            if s.is_some_and(|s| s.0.seg == at.seg && s.0.u == at.u) {
+                *s = None;
+            }
+        }
+        let e = descend(t, cache, p, at, here, None, tol, OTHER_ITERATIONS);
+        if let Some(w) = wall_of(cache, e) {
+            found[n_found] = Some(w);
+            n_found += 1;
+        }
+    }
+    // Nearest first, each wall facing the point from a direction more than the angle from the
+    // first's and every other's taken (two descents that end on one wall end within degrees).
+    found[..n_found].sort_unstable_by(|a, b| a.map_or(f32::INFINITY, |w| w.2).total_cmp(&b.map_or(f32::INFINITY, |w| w.2)));
+    let mut taken = [normal; 1 + MAX_OTHERS];
+    let mut others = [None; MAX_OTHERS];
+    let mut n_taken = 1;
+    for (e, n, d) in found[..n_found].iter().flatten() {
+        if n_taken <= MAX_OTHERS && taken[..n_taken].iter().all(|m| n.dot(m) < cos) {
+            others[n_taken - 1] = Some(gap_at(&from, e, *n, side * d));
+            taken[n_taken] = *n;
+            n_taken += 1;
+        }
+    }
+    Near { first, others }
+}
+
+/// Whether the wall's outward normal `out` (unnormalised) is turned from the unit `normal` by
+/// more than the angle whose cosine is `cos`.
+#[inline]
+fn turned(out: &V3, normal: &V3, cos: f32) -> bool {
+    out.dot(normal) < cos * out.norm()
+}
+
+/// The contact normal at the end of a descent and the distance to it: the direction between
+/// the point and the wall point, outward (from the wall to an outside point, from an inside
+/// point to the wall), or the wall's own normal where the point is on it; `None` where the wall
+/// there faces the other way (a fold of the surface seen from behind).
+fn judge(t: &TubeView, cache: &mut TubeCache, p: &V3, e: &End, side: f32, tol: f32) -> Option<(V3, f32)> {
+    let dist = e.d2.sqrt();
+    let wall_out = e.here.outward(cache.ring(t, e.at.seg).o);
+    let normal = if dist > tol { (p - e.here.s) * (side / dist) } else { wall_out.try_normalize(0.0)? };
+    (normal.dot(&wall_out) > 0.0).then_some((normal, dist))
+}
+
+/// `from` moved to the end of a descent.
+fn gap_at(from: &Gap, e: &End, normal: V3, sd: f32) -> Gap {
+    Gap { sd, normal, wall: e.here.s, seg: e.at.seg, u: e.at.u, k: e.at.k, l: e.at.l, ..*from }
+}
+
+/// Rings either side of the point's own that [`scan_pockets`] reads at most.
+pub const SCAN_RINGS: usize = 24;
+
+/// Pockets [`scan_pockets`] returns at most.
+pub const SCAN_SEEDS: usize = 4;
+
+/// The wall's pockets around `p`, for the rod's ends: the nearest wall corner (ring `i`, spoke
+/// `k`: `C_i + V_ik`) on each ring within `dist` of `p`'s own along the tube (and within a
+/// quarter turn of its strip `k0`), and of those, the rings nearer than both neighbours: up to
+/// [`SCAN_SEEDS`], nearest first, each on a wall facing `p` (`side` as in [`nearest`]).
+///
+/// Why the ends: the wall ahead of the scope's end (a fold's front within its radius along the
+/// tube) lies in no section a sample reads, and the distance to it has several local minima
+/// there (the side wall, a fold's valley, the fold's front a few rings further), more than the
+/// seeds of [`nearest`] tell apart: on the GCA colon the end stood 0.1 mm into a fold's front
+/// while its seeds' descents ended on the side wall and in the valley before it. Two samples
+/// per rod, a few hundred corners each: cheap.
+fn scan_pockets(t: &TubeView, cache: &mut TubeCache, p: &V3, from: &Gap, k0: usize, dist: f32, side: f32) -> [Option<(Patch, Local)>; SCAN_SEEDS] {
+    let (b, last) = (t.spokes, t.segments() - 1);
+    let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
+    let n = ((dist / spacing).ceil() as usize).min(SCAN_RINGS);
+    let lo = from.seg.saturating_sub(n);
+    let hi = (from.seg + 1 + n).min(t.rings - 1);
+    let w = (b / 4).max(1);
+    // Per ring: the squared distance to its nearest corner in the window, and that corner.
+    let mut ring = [(f32::INFINITY, 0usize); 2 * SCAN_RINGS + 2];
+    for i in lo..=hi {
+        let c = t.point(i);
+        for j in 0..=2 * w {
+            let k = (k0 + b + j - w) % b;
+            let d2 = (p - (c + t.spoke(i, k))).norm_squared();
+            if d2 < ring[i - lo].0 {
+                ring[i - lo] = (d2, k);
+            }
+        }
+    }
+    let mut out: [Option<(Patch, Local)>; SCAN_SEEDS] = [None; SCAN_SEEDS];
+    let mut kept = [f32::INFINITY; SCAN_SEEDS];
+    let n = hi - lo + 1;
+    for j in 0..n {
+        let d2 = ring[j].0;
+        let pocket = (j == 0 || d2 <= ring[j - 1].0) && (j + 1 == n || d2 <= ring[j + 1].0);
+        if !pocket || d2 > dist * dist {
+            continue;
+        }
+        let Some(slot) = (0..SCAN_SEEDS).max_by(|&x, &y| kept[x].total_cmp(&kept[y])).filter(|&x| d2 < kept[x]) else { continue };
+        let i = lo + j;
+        let at = if i > last { Patch { seg: last, u: 1.0, k: ring[j].1, l: 0.0 } } else { Patch { seg: i, u: 0.0, k: ring[j].1, l: 0.0 } };
+        let here = local(t, cache, at);
+        if (p - here.s).dot(&here.outward(cache.ring(t, at.seg).o)) * side > 0.0 {
+            out[slot] = Some((at, here));
+            kept[slot] = d2;
+        }
+    }
+    out
 }
 
 /// Where the second descent of [`nearest`] may start, in units of its `reach` along the tube.
@@ -220,15 +401,40 @@ pub const SEEDS: [f32; 4] = [-1.0, -0.5, 0.5, 1.0];
 /// Ring planes the walk to a seed's section may cross.
 const SEED_WINDOW: usize = 16;
 
+/// Where the second and later descents may start: wall points facing the point (patch, wall, squared
+/// distance), the first `n` slots filled in order, a slot emptied once descended from.
+struct Seeds {
+    at: [Option<(Patch, Local, f32)>; SEED_SLOTS],
+    n: usize,
+}
+
+/// A step that leaves its patch within this fraction of its length starts on the edge (to
+/// rounding): it crosses over first.
+const EDGE: f32 = 1e-4;
+
+/// The descents' ends [`nearest`] may judge as other walls: two spares, the pockets, the tries.
+const CANDIDATES: usize = 2 + SCAN_SEEDS + OTHER_TRIES;
+
+/// Most steps of a descent from a seed in search of another wall: it starts up to the rod's
+/// radius along the tube from the wall it ends on, several half-patch steps with rings 1 mm
+/// apart.
+pub const OTHER_ITERATIONS: usize = 16;
+
+/// Descents at most from seeds along the tube in search of another wall.
+const OTHER_TRIES: usize = 2;
+
+/// Seeds at most: three strips in the point's own section and in each of [`SEEDS`]'.
+const SEED_SLOTS: usize = 3 * (1 + SEEDS.len());
+
 /// Descends from `at` (where the wall is `here`) as the module says; `first_du`, if given,
 /// replaces the first step (along the tube only).
-fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here: Local, first_du: Option<f32>, tol: f32) -> End {
-    let b = t.spokes;
-    let last = t.segments() - 1;
+#[allow(clippy::too_many_arguments)]
+fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here: Local, first_du: Option<f32>, tol: f32, iterations: usize) -> End {
     let mut d2 = (p - here.s).norm_squared();
     // A coordinate pinned on a crease: -1 / +1 its lower / upper edge, 0 free.
     let (mut pin_u, mut pin_l) = (0i8, 0i8);
-    for it in 0..ITERATIONS {
+    let mut settled = false;
+    for it in 0..iterations {
         let r = p - here.s;
         let (gu, gl) = (r.dot(&here.su), r.dot(&here.sl));
         let (uu, ul, ll) = (here.su.norm_squared(), here.su.dot(&here.sl), here.sl.norm_squared());
@@ -236,12 +442,16 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         // Newton where H is positive definite, Gauss-Newton where not.
         let (huu, hul) = if nuu > 0.0 && nuu * ll - nul * nul > 0.0 { (nuu, nul) } else { (uu, ul) };
         let (mut du, mut dl) = match (pin_u != 0, pin_l != 0) {
-            (true, true) => break,
+            (true, true) => {
+                settled = true;
+                break;
+            }
             (true, false) => (0.0, if ll > 0.0 { gl / ll } else { 0.0 }),
             (false, true) => (if huu > 0.0 { gu / huu } else { 0.0 }, 0.0),
             (false, false) => {
                 let det = huu * ll - hul * hul;
                 if det <= 0.0 {
+                    settled = true;
                     break;
                 }
                 ((gu * ll - gl * hul) / det, (gl * huu - gu * hul) / det)
@@ -259,10 +469,17 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         // Stop on the patch's edge where the step leaves it.
         let (fu, fl) = (edge_fraction(at.u, du), edge_fraction(at.l, dl));
         let f = fu.min(fl);
-        let (mut du, mut dl) = (du * f, dl * f);
         // Which edges the full step ends on (-1 lower, +1 upper).
-        let mut eu = if fu < 1.0 && fu <= fl { du.signum() as i8 } else { 0 };
-        let mut el = if fl < 1.0 && fl <= fu { dl.signum() as i8 } else { 0 };
+        let edge = |d: f32| if d > 0.0 { 1 } else { -1 };
+        let mut eu = if fu < 1.0 && fu <= fl { edge(du) } else { 0 };
+        let mut el = if fl < 1.0 && fl <= fu { edge(dl) } else { 0 };
+        if f <= EDGE {
+            // Already on the edge the step leaves by (a descent started on a ring or a spoke's
+            // tip line): over it without moving, or pin it.
+            (at, here) = across_edges(t, cache, p, at, here, eu, el, &mut pin_u, &mut pin_l);
+            continue;
+        }
+        let (mut du, mut dl) = (du * f, dl * f);
         let mut moved = None;
         for _ in 0..3 {
             let on = |x: f32, d: f32, e: i8| match e {
@@ -283,33 +500,46 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
             eu = 0;
             el = 0;
         }
-        let Some((cand, next, nd2)) = moved else { break };
+        let Some((cand, next, nd2)) = moved else {
+            settled = true;
+            break;
+        };
         let step2 = (next.s - here.s).norm_squared();
         at = cand;
         here = next;
         d2 = nd2;
-        // On an edge the step wanted to cross: go on in the neighbouring patch if the descent
-        // goes on into it; if it would come straight back, the edge is a crease: pin it.
-        if el != 0 {
-            let across = if el < 0 { Patch { k: (at.k + b - 1) % b, l: 1.0, ..at } } else { Patch { k: (at.k + 1) % b, l: 0.0, ..at } };
-            match goes_on(t, cache, p, across, el, |w| w.sl) {
-                Some(there) => (at, here) = (across, there),
-                None => pin_l = el,
-            }
-        }
-        if eu != 0 {
-            let seg = if eu < 0 { at.seg.checked_sub(1) } else { (at.seg < last).then_some(at.seg + 1) };
-            let across = seg.map(|seg| Patch { seg, u: if eu < 0 { 1.0 } else { 0.0 }, ..at });
-            match across.and_then(|a| goes_on(t, cache, p, a, eu, |w| w.su).map(|there| (a, there))) {
-                Some((a, there)) => (at, here) = (a, there),
-                None => pin_u = eu,
-            }
-        }
+        (at, here) = across_edges(t, cache, p, at, here, eu, el, &mut pin_u, &mut pin_l);
         if step2 <= tol * tol {
+            settled = true;
             break;
         }
     }
-    End { at, here, d2 }
+    End { at, here, d2, settled }
+}
+
+/// On the edges a step wanted to cross (`eu`, `el`: -1 lower, +1 upper, 0 none): goes on in the
+/// neighbouring patch if the descent goes on into it; if it would come straight back, the edge
+/// is a crease: pins it.
+#[allow(clippy::too_many_arguments)]
+fn across_edges(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here: Local, eu: i8, el: i8, pin_u: &mut i8, pin_l: &mut i8) -> (Patch, Local) {
+    let b = t.spokes;
+    if el != 0 {
+        let across = if el < 0 { Patch { k: (at.k + b - 1) % b, l: 1.0, ..at } } else { Patch { k: (at.k + 1) % b, l: 0.0, ..at } };
+        match goes_on(t, cache, p, across, el, |w| w.sl) {
+            Some(there) => (at, here) = (across, there),
+            None => *pin_l = el,
+        }
+    }
+    if eu != 0 {
+        let last = t.segments() - 1;
+        let seg = if eu < 0 { at.seg.checked_sub(1) } else { (at.seg < last).then_some(at.seg + 1) };
+        let across = seg.map(|seg| Patch { seg, u: if eu < 0 { 1.0 } else { 0.0 }, ..at });
+        match across.and_then(|a| goes_on(t, cache, p, a, eu, |w| w.su).map(|there| (a, there))) {
+            Some((a, there)) => (at, here) = (a, there),
+            None => *pin_u = eu,
+        }
+    }
+    (at, here)
 }
 
 /// The wall at `across`, the patch beyond an edge the descent reached on side `e` (-1 lower,

@@ -6,6 +6,7 @@ use common::*;
 use lumen_detect::samples::RodSamples;
 use lumen_detect::view::RodView;
 use lumen_detect::{Contact, Method, Rod, Scene, Tube, V3};
+use lumen_proto::contact::FLAG_OTHER_WALL;
 use lumen_oracle::Reference;
 use std::f32::consts::{FRAC_1_SQRT_2, PI, TAU};
 
@@ -27,6 +28,13 @@ struct Agreement {
     /// Largest angle (rad) between a contact's normal and the reference wall normal at the
     /// nearest point, or at the contact's own wall point where that is nearer in angle.
     worst_normal: f32,
+    /// Second contacts of a sample (`FLAG_OTHER_WALL`): another wall than its nearest, judged on
+    /// their own wall point: the largest of its reference distance from the wall, of the
+    /// error of the depth the sample has there, and (rad) of the angle between the contact's
+    /// normal and the reference normal there.
+    second: usize,
+    second_off: f32,
+    second_normal: f32,
 }
 
 /// Compares contacts of `tube`/`rod` with the reference at every sample. Samples whose
@@ -35,11 +43,18 @@ struct Agreement {
 fn agree(tube: &Tube, rod: &Rod, x: usize, cs: &[Contact], tol: f32) -> Agreement {
     let reference = Reference::new(tube, 0.5, 16);
     let samples = samples(rod, x);
-    let mut a = Agreement { worst: 0.0, missed: vec![], reported: cs.len(), worst_normal: 0.0 };
+    let mut a = Agreement { worst: 0.0, missed: vec![], reported: cs.len(), worst_normal: 0.0, second: 0, second_off: 0.0, second_normal: 0.0 };
     for (s, (p, r)) in samples.iter().enumerate() {
         let q = reference.query(*p);
         let want = r + q.sd;
-        match cs.iter().find(|c| c.sample as usize == s) {
+        for c in cs.iter().filter(|c| c.sample as usize == s && c.flags & FLAG_OTHER_WALL != 0) {
+            let w = reference.query(c.point_b);
+            let to_wall = norm(add(w.point, scale(*p, -1.0)));
+            a.second += 1;
+            a.second_off = a.second_off.max(w.sd.abs()).max((c.depth - (r - to_wall)).abs());
+            a.second_normal = a.second_normal.max(dot(c.normal, w.normal).clamp(-1.0, 1.0).acos());
+        }
+        match cs.iter().find(|c| c.sample as usize == s && c.flags & FLAG_OTHER_WALL == 0) {
             Some(c) => {
                 a.worst = a.worst.max((c.depth - want).abs());
                 // Where two wall points are (nearly) equally near, "the normal at the nearest
@@ -263,6 +278,46 @@ fn nearest_sees_a_fold_ahead_of_the_scope_end() {
     // The end is read even where its section puts it beyond the margin.
     let bare = with_nearest(&colon, &scope, true);
     assert!(bare.iter().any(|c| c.sample == last && (c.depth - want).abs() < 0.05), "no margin: {bare:?}");
+}
+
+#[test]
+fn nearest_holds_the_scope_end_by_the_side_wall_and_the_fold_ahead() {
+    // The scope's end in a corner: against the side wall, 0.1 into it, with the fold's front
+    // flank 0.5 ahead of its surface, within the margin of 2. The scope lies in the half-plane
+    // through the middle of a strip (angle pi/32 between spokes 0 and 1), where the 32-gon's
+    // wall is `c = cos(pi/32)` of its radius: the side wall at `rho = 20c`, the fold's front the
+    // line from (40, 20c) to (43, 9c) in (x, rho), both exact (the patches are flat there).
+    // One contact, the nearest wall, would let the end slide along the side wall into the fold
+    // (the GCA colonoscopy's deepest penetration); the fold is the sample's second contact.
+    let colon = ring_fold();
+    let (a, c) = (PI / 32.0, (PI / 32.0).cos());
+    let (rho, end_x) = (13.5f32, 34.5f32);
+    let at = |x: f32| [x, rho * a.cos(), rho * a.sin()];
+    let scope = line(at(5.0), at(end_x), 9, 6.5);
+    let samples = samples(&scope, 4);
+    let last = samples.len() as u32 - 1;
+    let side = 6.5 - (20.0 * c - rho);
+    let (fx, fr) = (3.0f32, 11.0 * c);
+    let len = (fx * fx + fr * fr).sqrt();
+    let fold = |x: f32| 6.5 - (fr * (40.0 - x) + fx * (20.0 * c - rho)) / len;
+    let on = with_nearest_margin(&colon, &scope, true);
+    let mine: Vec<&Contact> = on.iter().filter(|c| c.sample == last).collect();
+    assert_eq!(mine.len(), 2, "the end's contacts: {mine:?}");
+    assert!(mine[0].flags & FLAG_OTHER_WALL == 0 && (mine[0].depth - side).abs() < 0.01, "first: the side wall at depth {side}: {:?}", mine[0]);
+    assert!(mine[1].flags & FLAG_OTHER_WALL != 0 && (mine[1].depth - fold(end_x)).abs() < 0.01, "second: the fold at depth {}: {:?}", fold(end_x), mine[1]);
+    assert!((mine[1].normal[0] - fr / len).abs() < 0.01, "the fold's flank faces the end: {:?}", mine[1].normal);
+    // Every second contact is the fold's front, at the depth the line gives, and the other
+    // samples' first contacts the side wall.
+    let ag = agree(&colon, &scope, 4, &on, 0.05);
+    assert!(ag.second >= 2 && ag.second_off < 0.02 && ag.second_normal < 2f32.to_radians(), "{} second contacts, off {} mm, normal {} deg", ag.second, ag.second_off, ag.second_normal.to_degrees());
+    assert!(ag.worst < 0.01 && ag.missed.is_empty(), "first contacts: depth error {}, missed {:?}", ag.worst, ag.missed);
+    for c in on.iter().filter(|c| c.flags & FLAG_OTHER_WALL != 0) {
+        let x = samples[c.sample as usize].0[0];
+        assert!((c.depth - fold(x)).abs() < 0.01, "sample {} at x = {x}: depth {} (the fold: {})", c.sample, c.depth, fold(x));
+    }
+    // Beyond the margin, no second wall: without a margin the fold (0.5 away) is not reported.
+    let bare = with_nearest(&colon, &scope, true);
+    assert!(bare.iter().all(|c| c.flags & FLAG_OTHER_WALL == 0), "no margin: {bare:?}");
 }
 
 #[test]

@@ -35,6 +35,14 @@ pub const FLAG_NOT_STAR: u8 = 1;
 /// method loses.
 pub const FLAG_OUTSIDE: u8 = 2;
 
+/// Flag: another contact of the same rod sample with the same tube (interior contacts, with the
+/// scene's `nearest`): another wall within the margin, facing the sample from a direction more
+/// than 30 degrees from its first contact's and from its other ones' (the scope's end between
+/// the side wall and a fold ahead of it, or in a pocket between several). Its depth, normal and
+/// wall point are that wall's. A sample has at most four contacts per pair: its first (its
+/// nearest wall, unflagged) and up to three flagged ones after it.
+pub const FLAG_OTHER_WALL: u8 = 4;
+
 /// `index_b`/`spoke_b` value meaning "not a tube".
 pub const NO_SPOKE: u32 = u32::MAX;
 

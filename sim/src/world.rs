@@ -380,7 +380,7 @@ impl<S: ContactSource> World<S> {
         let wall = Wall::new(tube, config.wall.clone());
         let operator = Operator::new(config.script.clone());
         let mut contacts = ContactSet::default();
-        contacts.set_body_entry(axis_origin, axis_dir);
+        contacts.set_body_entry(axis_origin, axis_dir, config.rod.radius_mm);
         let mut w = Self {
             config,
             rod,
@@ -455,7 +455,7 @@ impl<S: ContactSource> World<S> {
                 self.initial_bend[i] = x[i - 1] - x[i] * 2.0 + x[i + 1];
             }
             self.contacts = ContactSet::default();
-            self.contacts.set_body_entry(self.axis_origin, self.axis_dir);
+            self.contacts.set_body_entry(self.axis_origin, self.axis_dir, self.config.rod.radius_mm);
         }
         self.fit_iterations = it;
         Ok(it)

@@ -9,12 +9,12 @@
 use super::Emit;
 use crate::aabb::Aabb;
 use crate::bvh::ChainBvh;
-use crate::nearest::nearest;
+use crate::nearest::{nearest, MAX_OTHERS};
 use crate::samples::RodSamples;
 use crate::section::{Axial, Gap, TubeCache};
 use crate::view::TubeView;
 use crate::V3;
-use lumen_proto::contact::{FLAG_NOT_STAR, FLAG_OUTSIDE};
+use lumen_proto::contact::{FLAG_NOT_STAR, FLAG_OUTSIDE, FLAG_OTHER_WALL};
 use lumen_proto::Contact;
 
 /// Ring planes a sample may walk per frame before it re-acquires through the BVH.
@@ -252,12 +252,22 @@ pub fn interior(
         // The rod's ends are read whatever their section says: the wall ahead of an end (a
         // fold's flank within the rod's radius along the tube) lies in no section a sample
         // reads, where along the rod the next sample's own section holds it.
+        let mut others = [None; MAX_OTHERS];
         if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || s == 0 || s + 1 == rod.len()) {
-            g = nearest(t, cache, &p, g, r);
+            // The rod's ends are also scanned for pockets of the wall around them.
+            let near = nearest(t, cache, &p, g, r, r + emit.margin, s == 0 || s + 1 == rod.len());
+            (g, others) = (near.first, near.others);
         }
         let depth = g.sd + r;
         if depth > -emit.margin {
             out.push(tube_contact(rod, s, &g, r, depth, g.normal, emit, t.spokes));
+        }
+        // Other walls within the margin (a corner, a pocket): a contact each, so the sample is
+        // held by all of them.
+        for g2 in others.iter().flatten() {
+            let mut c = tube_contact(rod, s, g2, r, g2.sd + r, g2.normal, emit, t.spokes);
+            c.flags |= FLAG_OTHER_WALL;
+            out.push(c);
         }
     }
 }
@@ -315,7 +325,7 @@ pub fn exterior(
     for (s, &(depth, g)) in best.iter().enumerate() {
         let r = rod.radius[s];
         let (depth, g) = if params.nearest && depth > -NEAREST_REACH * emit.margin {
-            let g = nearest(t, cache, &rod.pos[s], g, 0.0);
+            let g = nearest(t, cache, &rod.pos[s], g, 0.0, 0.0, false).first;
             (r - g.sd, g)
         } else {
             (depth, g)

@@ -171,7 +171,7 @@ fn main() {
         if trace_pen.is_some_and(|t| r.max_penetration_mm > t) {
             // The deepest contact, and what the same sample had at the frame's start.
             let c = world.contacts().iter().find(|c| c.sample == r.deepest_sample && c.kind == 0).expect("deepest contact");
-            let was = before.iter().find(|p| p.sample == c.sample && p.kind == 0);
+            let was: Vec<String> = before.iter().filter(|p| p.sample == c.sample && p.kind == 0).map(|p| format!("depth {:.3} mm flags {} normal {:?} at ring {} spoke {}", p.depth, p.flags, p.normal, p.index_b, p.spoke_b)).collect();
             println!(
                 "frame {} ({}): sample {} depth {:.3} mm flags {} normal {:?} at ring {} spoke {}; at the frame's start: {}",
                 r.frame,
@@ -182,7 +182,7 @@ fn main() {
                 c.normal,
                 c.index_b,
                 c.spoke_b,
-                was.map_or("no contact".to_string(), |p| format!("depth {:.3} mm normal {:?} at ring {} spoke {}", p.depth, p.normal, p.index_b, p.spoke_b))
+                if was.is_empty() { "no contact".to_string() } else { was.join("; ") }
             );
         }
         if r.max_penetration_mm > pen {
