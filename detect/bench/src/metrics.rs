@@ -25,6 +25,11 @@
 //!   from two faces of a crease), so the reference normal at the method's *own* wall point (the
 //!   reference queried at the reported wall point) is also accepted: the smaller of the two
 //!   angles counts;
+//! - **other walls**: a `lumen-detect` contact flagged `FLAG_OTHER_WALL` (bit 2) is a sample's
+//!   contact with another wall than its nearest (a corner, a pocket): it is judged on its own
+//!   wall point `w` (the reference's nearest wall point to the reported one): depth error
+//!   against `r - |p - w|`, normal error against the reference normal at `w`, false when
+//!   `-(r - |p - w|)` is [`TOLERANCE_MM`] or more;
 //! - **escapes**: the method's samples whose centre is outside the reference wall (`sd > 0`);
 //!   one is *detected* when the method reports a contact at that sample (for parry: of either
 //!   capsule ending at that sample) that knows the centre is through the wall: depth at least `r - 0.1 mm` and a
@@ -38,6 +43,7 @@
 //! reference's nearest wall point; both are reported.
 
 use lumen_detect::spline::Cubic;
+use lumen_detect::proto::contact::FLAG_OTHER_WALL;
 use lumen_detect::{Rod, Tube, V3};
 use lumen_oracle::{dense_rod, RefQuery, Reference};
 
@@ -446,7 +452,8 @@ pub struct Place {
     pub ring: u32,
     pub spoke: u32,
     pub param: f32,
-    /// `FLAG_*` bits (1: section not star-shaped, 2: sample outside the wall).
+    /// `FLAG_*` bits (1: section not star-shaped, 2: sample outside the wall, 4: another wall
+    /// than the sample's nearest).
     pub flags: u8,
 }
 
@@ -658,11 +665,19 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
             tally.excluded_contacts += 1;
             continue;
         }
+        let other_wall = c.place.is_some_and(|pl| pl.flags & FLAG_OTHER_WALL != 0);
+        if other_wall && wall.folded {
+            tally.excluded_contacts += 1;
+            continue;
+        }
         tally.contacts += 1;
         let q = ans.q;
-        let ref_depth = q.sd + r;
+        let (ref_depth, nerr) = if other_wall {
+            (r - dist(p, wall.q.point), angle_deg(c.normal, wall.q.normal))
+        } else {
+            (q.sd + r, angle_deg(c.normal, q.normal).min(angle_deg(c.normal, wall.q.normal)))
+        };
         let err = (c.depth - ref_depth).abs();
-        let nerr = angle_deg(c.normal, q.normal).min(angle_deg(c.normal, wall.q.normal));
         let lb = ans.local_bound;
         tally.depth_err.push(err);
         tally.normal_err.push(nerr);

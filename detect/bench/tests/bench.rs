@@ -1,7 +1,7 @@
 //! lumen-bench: the metrics on hand-made cases with known answers, the parry baseline against
 //! the reference, the report's JSON, and a tiny sweep end to end.
 
-use lumen_bench::metrics::{evaluate, plan, Reported, Tally, Truth, TruthParams, DENSE_PER_SEGMENT};
+use lumen_bench::metrics::{evaluate, plan, Place, Reported, Tally, Truth, TruthParams, DENSE_PER_SEGMENT};
 use lumen_bench::{MethodKind, Options, ParryBaseline, ParryShape, SceneKind};
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use std::f32::consts::TAU;
@@ -116,6 +116,34 @@ fn nothing_reported_is_one_missed_place_and_an_undetected_escape() {
     assert_eq!(m.depth_err_p99_mm, None);
     let f = tally.findings.iter().find(|f| f.kind == "missed").unwrap();
     assert!(f.point[0] > 40.0 && f.point[0] < 50.0, "the run starts before x = 50: {:?}", f.point);
+}
+
+#[test]
+fn another_wall_is_judged_on_its_own_wall_point() {
+    // Sample 9 (x = 45, on the way up to the pushed control point) is nearest the +y wall. A
+    // contact flagged as another wall of it (`FLAG_OTHER_WALL`), at the wall's vertex at 45
+    // degrees (spoke 4), is right about that wall: its depth is `r - |p - w|` and its normal
+    // the wall's there, though the sample's nearest wall is elsewhere and nearer. Judged as its
+    // sample's nearest, its depth would be off by 3 mm.
+    let tube = straight_tube(32);
+    let (rod, arc) = escaping_rod();
+    let x = 2;
+    let t = truth(&tube, &rod, &arc, &[]);
+    let d = t.dense()[t.sample_index(x, 9)];
+    let s45 = std::f32::consts::FRAC_1_SQRT_2;
+    let w = [d.p[0], 10.0 * s45, 10.0 * s45];
+    let to_w = ((w[0] - d.p[0]).powi(2) + (w[1] - d.p[1]).powi(2) + (w[2] - d.p[2]).powi(2)).sqrt();
+    let other = |flags: u8| Reported { sample: 9, at: None, depth: d.r - to_w, normal: [0.0, s45, s45], wall: w, place: Some(Place { ring: 0, spoke: 4, param: 0.0, flags }) };
+    let m = judge(&tube, &rod, &arc, x, &[other(4)]).1.metrics();
+    assert_eq!(m.contacts_evaluated, 1);
+    assert!(m.depth_err_max_mm.unwrap() < 1e-3, "depth error {:?}", m.depth_err_max_mm);
+    assert!(m.normal_err_p99_deg.unwrap() < 0.5, "normal error {:?}", m.normal_err_p99_deg);
+    // 5 mm from touching: a false contact, as any contact reported that far off.
+    assert!(d.r - to_w < -5.0);
+    assert_eq!(m.false_contacts, 1);
+    // Unflagged, it is judged against the sample's nearest wall.
+    let m = judge(&tube, &rod, &arc, x, &[other(0)]).1.metrics();
+    assert!(m.depth_err_max_mm.unwrap() > 3.0, "depth error {:?}", m.depth_err_max_mm);
 }
 
 #[test]
