@@ -306,10 +306,10 @@ fn nearest_holds_the_scope_end_by_the_side_wall_and_the_fold_ahead() {
     assert!(mine[0].flags & FLAG_OTHER_WALL == 0 && (mine[0].depth - side).abs() < 0.01, "first: the side wall at depth {side}: {:?}", mine[0]);
     assert!(mine[1].flags & FLAG_OTHER_WALL != 0 && (mine[1].depth - fold(end_x)).abs() < 0.01, "second: the fold at depth {}: {:?}", fold(end_x), mine[1]);
     assert!((mine[1].normal[0] - fr / len).abs() < 0.01, "the fold's flank faces the end: {:?}", mine[1].normal);
-    // Every second contact is the fold's front, at the depth the line gives, and the other
+    // Every other wall reported is the fold's front, at the depth the line gives, and the
     // samples' first contacts the side wall.
     let ag = agree(&colon, &scope, 4, &on, 0.05);
-    assert!(ag.second >= 2 && ag.second_off < 0.02 && ag.second_normal < 2f32.to_radians(), "{} second contacts, off {} mm, normal {} deg", ag.second, ag.second_off, ag.second_normal.to_degrees());
+    assert!(ag.second >= 1 && ag.second_off < 0.02 && ag.second_normal < 2f32.to_radians(), "{} second contacts, off {} mm, normal {} deg", ag.second, ag.second_off, ag.second_normal.to_degrees());
     assert!(ag.worst < 0.01 && ag.missed.is_empty(), "first contacts: depth error {}, missed {:?}", ag.worst, ag.missed);
     for c in on.iter().filter(|c| c.flags & FLAG_OTHER_WALL != 0) {
         let x = samples[c.sample as usize].0[0];

@@ -1,4 +1,5 @@
-//! The contact record: one per rod sample in contact, `#[repr(C)]` so it travels as plain bytes.
+//! The contact record: one per rod sample in contact (and per other wall it touches, see
+//! [`FLAG_OTHER_WALL`]), `#[repr(C)]` so it travels as plain bytes.
 
 use serde::{Deserialize, Serialize};
 

@@ -1,4 +1,5 @@
-//! Narrow phases: from candidate places to contacts, one contact per rod sample and pair.
+//! Narrow phases: from candidate places to contacts, one contact per rod sample and pair (with
+//! the scene's `nearest`, an interior sample also gets one for each other wall within the margin).
 //!
 //! - [`signed`]: the default interior and rod-against-tube-exterior tests (signed containment
 //!   with temporal coherence);
