@@ -111,6 +111,14 @@ impl Local {
     fn outward(&self, o: f32) -> V3 {
         self.sl.cross(&self.su) * o
     }
+
+    /// Whether the wall here faces `p` from the side `side` (-1 inside, +1 outside): not the
+    /// back of a fold's crest, which is nearer than its front from some places, and from which
+    /// a descent ends on the crest.
+    #[inline]
+    fn faces(&self, p: &V3, o: f32, side: f32) -> bool {
+        (p - self.s).dot(&self.outward(o)) * side > 0.0
+    }
 }
 
 /// Where a descent ended: its patch coordinates, the wall there and the squared distance.
@@ -209,12 +217,8 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
             for (k, l) in [((start.k + b - 1) % b, 0.5), (start.k, start.l), ((start.k + 1) % b, 0.5)] {
                 let at = Patch { seg, u, k, l };
                 let here = local(t, cache, at);
-                let r = p - here.s;
-                let d2 = r.norm_squared();
-                // Only a wall facing the point's side: the back of a fold's crest is nearer
-                // than its front from some places, and a descent from it ends on the crest.
-                let facing = r.dot(&here.outward(cache.ring(t, seg).o)) * side > 0.0;
-                if facing && d2 < keep2 && seeds.n < SEED_SLOTS {
+                let d2 = (p - here.s).norm_squared();
+                if here.faces(p, cache.ring(t, seg).o, side) && d2 < keep2 && seeds.n < SEED_SLOTS {
                     seeds.at[seeds.n] = Some((at, here, d2));
                     seeds.n += 1;
                 }
@@ -241,7 +245,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
             }
         }
         if scan {
-            // The rod's end: a descent from each pocket of the wall around it (see [`scan`]).
+            // The rod's end: a descent from each pocket of the wall around it (see `scan_pockets`).
             let found = scan_pockets(t, cache, p, &from, start.k, reach + within, side);
             for (slot, (at, here)) in spare[2..].iter_mut().zip(found.into_iter().flatten()) {
                 let other = descend(t, cache, p, at, here, None, tol, OTHER_ITERATIONS);
@@ -277,10 +281,10 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         }
     }
     // At the rod's ends, where the descents so far found no other wall: descents from the seeds
-    // along the tube, on the foot's own strip, on a wall turned from the first and facing the point from another
-    // direction, nearest first, one per section (the neighbouring strips' seeds lie on the
-    // first wall's sides, and a seed on a wall running on as the first's does, a smooth tube's,
-    // is the first wall: descents from them slide back to it).
+    // along the tube, on the foot's own strip, on a wall turned from the first and facing the
+    // point from another direction, nearest first, one per section (the neighbouring strips'
+    // seeds lie on the first wall's sides, and a seed on a wall running on as the first's
+    // does, a smooth tube's, is the first wall: descents from them slide back to it).
     for _ in 0..if scan { OTHER_TRIES } else { 0 } {
         if found[..n_found].iter().flatten().any(|w| w.1.dot(&normal) < cos) {
             break;
@@ -361,9 +365,9 @@ pub const SCAN_SEEDS: usize = 4;
 fn scan_pockets(t: &TubeView, cache: &mut TubeCache, p: &V3, from: &Gap, k0: usize, dist: f32, side: f32) -> [Option<(Patch, Local)>; SCAN_SEEDS] {
     let (b, last) = (t.spokes, t.segments() - 1);
     let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
-    let n = ((dist / spacing).ceil() as usize).min(SCAN_RINGS);
-    let lo = from.seg.saturating_sub(n);
-    let hi = (from.seg + 1 + n).min(t.rings - 1);
+    let reach = ((dist / spacing).ceil() as usize).min(SCAN_RINGS);
+    let lo = from.seg.saturating_sub(reach);
+    let hi = (from.seg + 1 + reach).min(t.rings - 1);
     let w = (b / 4).max(1);
     // Per ring: the squared distance to its nearest corner in the window, and that corner.
     let mut ring = [(f32::INFINITY, 0usize); 2 * SCAN_RINGS + 2];
@@ -390,7 +394,7 @@ fn scan_pockets(t: &TubeView, cache: &mut TubeCache, p: &V3, from: &Gap, k0: usi
         let i = lo + j;
         let at = if i > last { Patch { seg: last, u: 1.0, k: ring[j].1, l: 0.0 } } else { Patch { seg: i, u: 0.0, k: ring[j].1, l: 0.0 } };
         let here = local(t, cache, at);
-        if (p - here.s).dot(&here.outward(cache.ring(t, at.seg).o)) * side > 0.0 {
+        if here.faces(p, cache.ring(t, at.seg).o, side) {
             out[slot] = Some((at, here));
             kept[slot] = d2;
         }

@@ -178,10 +178,12 @@ pub struct SimParams {
     /// true). The sections' own readings (off) measure a sample against its section's tangent
     /// plane, which on a steep fold passes millimetres from any wall point: measured on the
     /// GCA colon (`lumen-sim-run --scene gca --inflate F`, F = 1.7 to 2.3 by 0.1), the deepest
-    /// penetration was 3.3 to 5.2 mm off (samples escaped at 1.7) and 0.9 to 1.3 mm on, with
-    /// no escape. On that run the detection's time per frame did not measurably change (at
-    /// 2.0, four alternated runs: 177-218 us on, 172-220 us off); on the benchmark's
-    /// kinematic frames, with more samples near the wall, it is about 2.5 times the sections'.
+    /// penetration was 3.3 to 5.2 mm off (samples escaped at 1.7) and 0.65 to 0.88 mm on,
+    /// with no escape (0.9 to 1.3 mm while each sample had only its nearest wall as a
+    /// contact; the other walls within the margin are `FLAG_OTHER_WALL` contacts). On that run the detection's time per frame did not measurably change (at
+    /// 2.0, four alternated runs: 177-218 us on, 172-220 us off, before the other walls,
+    /// which took it from 176 to 195 us); on the benchmark's kinematic frames, with more
+    /// samples near the wall, it is about three times the sections'.
     pub nearest: bool,
     /// Speed limit of scope points and wall nodes, mm/s (default 1000; 0: none). A
     /// colonoscope's motions stay far below it; it keeps a frame's motion within about the

@@ -249,13 +249,14 @@ pub fn interior(
         shift = if tr.valid && walked { g.seg as isize - tr.seg as isize } else { 0 };
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
-        // The rod's ends are read whatever their section says: the wall ahead of an end (a
-        // fold's flank within the rod's radius along the tube) lies in no section a sample
-        // reads, where along the rod the next sample's own section holds it.
+        // The rod's ends are read whatever their section says, and scanned for pockets of the
+        // wall around them: the wall ahead of an end (a fold's flank within the rod's radius
+        // along the tube) lies in no section a sample reads, where along the rod the next
+        // sample's own section holds it.
+        let end = s == 0 || s + 1 == rod.len();
         let mut others = [None; MAX_OTHERS];
-        if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || s == 0 || s + 1 == rod.len()) {
-            // The rod's ends are also scanned for pockets of the wall around them.
-            let near = nearest(t, cache, &p, g, r, r + emit.margin, s == 0 || s + 1 == rod.len());
+        if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || end) {
+            let near = nearest(t, cache, &p, g, r, r + emit.margin, end);
             (g, others) = (near.first, near.others);
         }
         let depth = g.sd + r;
