@@ -104,12 +104,71 @@ impl Gap {
     }
 }
 
+/// A section reading, or the word that the point is clear of the wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reading {
+    /// The point is within reach of a wall (or the case was too close to call): its gap.
+    Gap(Gap),
+    /// Every wall the reading weighs lies more than the reach inside the point: no contact.
+    Clear {
+        seg: usize,
+        /// First spoke of the strip nearest the point (the full reading's [`Gap::k`]).
+        k: usize,
+        /// Squared distance of the point from the midline point of its section.
+        rho2: f32,
+        /// Size scale of the section.
+        size: f32,
+    },
+}
+
+/// How much farther than the reach, squared, a candidate must lie for the clearance test to
+/// call it clear without the full reading: a margin for the rounding of comparing squares
+/// where the full reading compares square roots (relative, ~1e-7 each).
+const CLEAR_SLACK: f32 = 1.0 + 1e-4;
+
+/// What a section holds around a point before its distance is taken (see [`TubeCache::gap`]).
+#[derive(Debug, Clone, Copy)]
+struct Around {
+    seg: usize,
+    u: f32,
+    /// Midline point of the section and its derivative along the tube.
+    c: V3,
+    cprime: V3,
+    /// Section normal (unnormalised) and orientation of the spokes about it.
+    n: V3,
+    o: f32,
+    /// `p - c`, and the in-plane direction the sector was found by.
+    d: V3,
+    q: V3,
+    /// The sector and the ray's place across it.
+    k: usize,
+    l: f32,
+    /// Spokes `k - 1 .. k + 2`, at `u`, and their change along the tube.
+    idx: [usize; 4],
+    vs: [V3; 4],
+    ds: [V3; 4],
+    not_star: bool,
+    scale: f32,
+}
+
 /// Where a point at signed distances `d0` and `d1` from the planes of rings `i` and `i + 1`
 /// (`d0 >= 0 >= d1`: they bracket it) lies along segment `i`: `u = d0 / (d0 - d1)`.
 #[inline]
 fn between(d0: f32, d1: f32) -> f32 {
     let den = d0 - d1;
     if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 }
+}
+
+/// Spoke `k + 1` of a ring of `b` spokes, for `k < b`: a compare, where `% b` would divide.
+#[inline]
+pub fn next(k: usize, b: usize) -> usize {
+    if k + 1 >= b { 0 } else { k + 1 }
+}
+
+/// Spoke `k - 1` of a ring of `b` spokes, for `k < b`.
+#[inline]
+pub fn prev(k: usize, b: usize) -> usize {
+    if k == 0 { b - 1 } else { k - 1 }
 }
 
 /// A unit vector perpendicular to unit `n`.
@@ -257,6 +316,24 @@ impl TubeCache {
     }
 
     fn gap_once(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>) -> Gap {
+        self.around(t, p, seg, u, k_guess).gap(p)
+    }
+
+    /// The signed gap of `p` in segment `seg` at `u` (no re-projection), unless every wall the
+    /// reading weighs lies more than `reach` inside the point: then only its sector
+    /// ([`Reading::Clear`]). The test takes the same candidates as the full reading, compared
+    /// squared (no square root, no wall point); a case within rounding of `reach`, or degenerate,
+    /// gets the full reading, so a point it calls clear reads `sd < -reach` there too.
+    pub fn gap_or_clear(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>, reach: f32) -> Reading {
+        let a = self.around(t, p, seg, u, k_guess);
+        match a.clear_by(p, reach) {
+            Some(k) => Reading::Clear { seg, k, rho2: a.d.norm_squared(), size: a.scale },
+            None => Reading::Gap(a.gap(p)),
+        }
+    }
+
+    /// The section at `u` of segment `seg` around `p`: its sector and the four spokes about it.
+    fn around(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>) -> Around {
         let b = t.spokes;
         let cubic = self.cubic(t, seg);
         let (r0, r1) = (self.ring(t, seg), self.ring(t, seg + 1));
@@ -276,7 +353,7 @@ impl TubeCache {
             if v.norm_squared() > tiny2 {
                 v
             } else {
-                let (l, r) = (spoke((k + b - 1) % b), spoke((k + 1) % b));
+                let (l, r) = (spoke(prev(k, b)), spoke(next(k, b)));
                 l.try_normalize(0.0).unwrap_or(l) + r.try_normalize(0.0).unwrap_or(r)
             }
         };
@@ -302,7 +379,7 @@ impl TubeCache {
             }
         };
         // Sector walk; a reversal of direction means the section is not star-shaped here.
-        let (mut a, mut bb) = (dir(k), dir((k + 1) % b));
+        let (mut a, mut bb) = (dir(k), dir(next(k, b)));
         let mut last_step = 0i32;
         let mut not_star = false;
         let (mut s1, mut s2);
@@ -320,13 +397,13 @@ impl TubeCache {
             }
             last_step = step;
             steps += 1;
-            k = if step < 0 { (k + b - 1) % b } else { (k + 1) % b };
+            k = if step < 0 { prev(k, b) } else { next(k, b) };
             if step < 0 {
                 bb = a;
                 a = dir(k);
             } else {
                 a = bb;
-                bb = dir((k + 1) % b);
+                bb = dir(next(k, b));
             }
         }
         let den = s1 + s2;
@@ -334,7 +411,7 @@ impl TubeCache {
         let cprime = cubic.tangent(u);
         // The four spokes around the sector (k-1 .. k+2) and their change along the tube, read
         // once: the three strips k-1, k, k+1 are all the distance needs.
-        let idx = [(k + b - 1) % b, k, (k + 1) % b, (k + 2) % b];
+        let idx = [prev(k, b), k, next(k, b), next(next(k, b), b)];
         let mut vs = [V3::zeros(); 4];
         let mut ds = [V3::zeros(); 4];
         for (j, &kk) in idx.iter().enumerate() {
@@ -342,6 +419,73 @@ impl TubeCache {
             vs[j] = s0 * (1.0 - u) + s1 * u;
             ds[j] = s1 - s0;
         }
+        Around { seg, u, c, cprime, n, o, d, q, k, l, idx, vs, ds, not_star, scale }
+    }
+}
+
+impl Around {
+    /// The spoke of the nearest candidate if every candidate of [`Around::gap`] lies more than
+    /// `reach` inside `p` (faces with `h < -reach`, tips farther than `reach` with the point
+    /// inside its sector's wall edge); `None` if any does not, or is degenerate or NaN.
+    ///
+    /// A face's distance `h = e . N / |N|` (`N = w x s_u`, unnormalised) is compared as
+    /// `(e . N)^2` against `reach^2 |N|^2`, a tip's as its squared distance: the full reading's
+    /// candidates and order, without its square roots and divisions by them.
+    fn clear_by(&self, p: &V3, reach: f32) -> Option<usize> {
+        let Around { c, cprime, n, o, d, idx, vs, ds, scale, .. } = *self;
+        let far2 = reach * reach * CLEAR_SLACK;
+        // Faces the full reading would call degenerate (|N| <= 1e-12 scale^2), or nearly so.
+        let tiny2 = 2.0 * (1e-12 * scale * scale).powi(2);
+        let mut best = (f32::INFINITY, idx[1]);
+        let mut lam = [0.0f32; 3];
+        for j in 0..3 {
+            let (va, vb) = (vs[j], vs[j + 1]);
+            let w = vb - va;
+            let ww = w.norm_squared();
+            lam[j] = if ww > 0.0 { (d - va).dot(&w) / ww } else { f32::NAN };
+            if (0.0..=1.0).contains(&lam[j]) {
+                let su = cprime + ds[j] * (1.0 - lam[j]) + ds[j + 1] * lam[j];
+                let nrm = w.cross(&su) * o;
+                let len2 = nrm.norm_squared();
+                let h_len = (d - va - w * lam[j]).dot(&nrm);
+                if !(len2 > tiny2 && h_len < 0.0 && h_len * h_len > far2 * len2) {
+                    return None;
+                }
+                let h2 = h_len * h_len / len2;
+                if h2 < best.0 {
+                    best = (h2, idx[j]);
+                }
+            }
+        }
+        let none_yet = best.0 == f32::INFINITY;
+        let mut tips = false;
+        for (jt, before, after) in [(1usize, lam[0], lam[1]), (2, lam[1], lam[2]), (0, f32::NAN, lam[0]), (3, lam[2], f32::NAN)] {
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            if none_yet || (!(before < 1.0) && !(after > 0.0)) {
+                let tt = cprime + ds[jt];
+                let r = p - (c + vs[jt]);
+                let tt2 = tt.norm_squared();
+                let along = if tt2 > 0.0 { tt * (r.dot(&tt) / tt2) } else { V3::zeros() };
+                let perp2 = (r - along).norm_squared();
+                if !(perp2 > far2) {
+                    return None;
+                }
+                tips = true;
+                if perp2 < best.0 {
+                    best = (perp2, idx[jt]);
+                }
+            }
+        }
+        // A tip takes its side from the sector test: any tip in play needs the point inside.
+        if tips && !(o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n) > 0.0) {
+            return None;
+        }
+        Some(best.1)
+    }
+
+    /// The full reading: the nearest of the three local strips or of the tips between them.
+    fn gap(&self, p: &V3) -> Gap {
+        let Around { seg, u, c, cprime, n, o, d, q, k, l, idx, vs, ds, mut not_star, scale } = *self;
         // Outward unit normal of strip j (spokes j, j+1 of `vs`) at position `l` along it.
         let face_normal = |j: usize, l: f32| -> Option<V3> {
             let su = cprime + ds[j] * (1.0 - l) + ds[j + 1] * l;

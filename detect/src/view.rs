@@ -10,9 +10,12 @@ use crate::V3;
 /// A tube: `rings` control points, each followed by `spokes` radial vectors.
 #[derive(Debug, Clone, Copy)]
 pub struct TubeView<'a> {
-    data: &'a [f32],
+    /// The floats as triples: one bounds check a vector, where a slice of three takes two.
+    data: &'a [[f32; 3]],
     pub rings: usize,
     pub spokes: usize,
+    /// Triples per ring: the control point and its spokes.
+    stride: usize,
     origin: V3,
 }
 
@@ -20,32 +23,30 @@ impl<'a> TubeView<'a> {
     /// `data` must hold `rings * (spokes + 1) * 3` floats.
     pub fn new(data: &'a [f32], rings: usize, spokes: usize, origin: V3) -> Self {
         debug_assert_eq!(data.len(), rings * (spokes + 1) * 3);
-        Self { data, rings, spokes, origin }
+        let (data, _) = data.as_chunks::<3>();
+        Self { data, rings, spokes, stride: spokes + 1, origin }
     }
 
     /// Control point `i`, local.
     #[inline]
     pub fn point(&self, i: usize) -> V3 {
-        let o = i * (self.spokes + 1) * 3;
-        let d = &self.data[o..o + 3];
-        V3::new(d[0] - self.origin.x, d[1] - self.origin.y, d[2] - self.origin.z)
+        let [x, y, z] = self.data[i * self.stride];
+        V3::new(x - self.origin.x, y - self.origin.y, z - self.origin.z)
     }
 
     /// Radial vector `k` of ring `i` (relative to its control point).
     #[inline]
     pub fn spoke(&self, i: usize, k: usize) -> V3 {
-        let o = (i * (self.spokes + 1) + 1 + k) * 3;
-        let d = &self.data[o..o + 3];
-        V3::new(d[0], d[1], d[2])
+        V3::from(self.data[i * self.stride + 1 + k])
     }
 
     /// The box of ring `i`'s radial vectors (relative to its control point), read in one pass
     /// over the ring's floats.
     pub fn spoke_box(&self, i: usize) -> Aabb {
-        let o = (i * (self.spokes + 1) + 1) * 3;
+        let o = i * self.stride + 1;
         let mut b = Aabb::EMPTY;
-        for v in self.data[o..o + 3 * self.spokes].chunks_exact(3) {
-            b.add(V3::new(v[0], v[1], v[2]));
+        for &v in &self.data[o..o + self.spokes] {
+            b.add(V3::from(v));
         }
         b
     }

@@ -11,7 +11,7 @@ use crate::aabb::Aabb;
 use crate::bvh::ChainBvh;
 use crate::nearest::{nearest, MAX_OTHERS};
 use crate::samples::RodSamples;
-use crate::section::{Axial, Gap, TubeCache};
+use crate::section::{Axial, Gap, Reading, TubeCache};
 use crate::view::TubeView;
 use crate::V3;
 use lumen_proto::contact::{FLAG_NOT_STAR, FLAG_OUTSIDE, FLAG_OTHER_WALL};
@@ -184,6 +184,9 @@ pub fn interior(
     // scope moves per frame, the walk then crosses no plane instead of several).
     let mut shift: isize = 0;
     let last = t.segments() as isize - 1;
+    // How far inside, beyond the rod's radius, a sample is clear: no contact, and no search
+    // for the nearest wall (which starts within NEAREST_REACH margins).
+    let clear = emit.margin * if params.nearest { NEAREST_REACH } else { 1.0 };
     // By index: a sample reads its position, radius and track, and writes its track.
     #[allow(clippy::needless_range_loop)]
     for s in 0..rod.len() {
@@ -196,16 +199,30 @@ pub fn interior(
         };
         let mut k_guess = tr.valid.then_some(tr.sector as usize);
         let r = rod.radius[s];
-        let mut gap = None;
+        // The rod's ends are read whatever their section says, and scanned for pockets of the
+        // wall around them: the wall ahead of an end (a fold's flank within the rod's radius
+        // along the tube) lies in no section a sample reads, where along the rod the next
+        // sample's own section holds it.
+        let end = s == 0 || s + 1 == rod.len();
+        let mut reading = None;
         if let Axial::In { seg, u } = axial {
-            let g = cache.gap(t, &p, seg, u, k_guess, params.refine);
+            // Most samples lie well inside: those only need their sector for next frame.
+            let read = if params.refine == 0 && !(params.nearest && end) {
+                cache.gap_or_clear(t, &p, seg, u, k_guess, r + clear)
+            } else {
+                Reading::Gap(cache.gap(t, &p, seg, u, k_guess, params.refine))
+            };
+            let (rho2, size) = match read {
+                Reading::Gap(g) => (g.rho2, g.size),
+                Reading::Clear { rho2, size, .. } => (rho2, size),
+            };
             // A walk that lands far from the midline has followed folded planes: re-acquire.
             let chord2 = (t.point(seg + 1) - t.point(seg)).norm_squared();
-            let reach = 8.0 * g.size.max(chord2.sqrt()) + 2.0 * r;
-            if g.rho2 > reach * reach {
+            let reach = 8.0 * size.max(chord2.sqrt()) + 2.0 * r;
+            if rho2 > reach * reach {
                 axial = Axial::Lost;
             } else {
-                gap = Some(g);
+                reading = Some(read);
             }
         }
         let walked = axial != Axial::Lost;
@@ -236,8 +253,15 @@ pub fn interior(
                 continue;
             }
         };
-        let mut g = match gap {
-            Some(g) => g,
+        let mut g = match reading {
+            Some(Reading::Gap(g)) => g,
+            Some(Reading::Clear { seg: cs, k, .. }) => {
+                // As a gap deeper than the margin would: the track moves, no contact.
+                shift = if tr.valid { cs as isize - tr.seg as isize } else { 0 };
+                tracks[s] = Track { seg: cs as u32, sector: k as u16, valid: true };
+                neighbour = Some(cs);
+                continue;
+            }
             None => cache.gap(t, &p, seg, u, k_guess, params.refine),
         };
         if g.sd > 0.0 {
@@ -249,11 +273,6 @@ pub fn interior(
         shift = if tr.valid && walked { g.seg as isize - tr.seg as isize } else { 0 };
         tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
         neighbour = Some(g.seg);
-        // The rod's ends are read whatever their section says, and scanned for pockets of the
-        // wall around them: the wall ahead of an end (a fold's flank within the rod's radius
-        // along the tube) lies in no section a sample reads, where along the rod the next
-        // sample's own section holds it.
-        let end = s == 0 || s + 1 == rod.len();
         let mut others = [None; MAX_OTHERS];
         if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || end) {
             let near = nearest(t, cache, &p, g, r, r + emit.margin, end);
