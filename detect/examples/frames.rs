@@ -1,0 +1,54 @@
+//! Times the default method frame by frame on the criterion scene (the generated colon, seed 7,
+//! 1,250 rings x 32 spokes; the 160-point scope inserted 1 m and advancing 1 mm a frame, the wall
+//! deformed where pressed), over and over, and prints the median. A driver for profilers, where
+//! `lumen bench detect` would spend its time on the reference:
+//!
+//! ```sh
+//! cargo build --release -p lumen-detect --example frames
+//! target/release/examples/frames 4 30                    # precision x, passes over 64 frames
+//! valgrind --tool=callgrind --toggle-collect='*detect_prevalidated*' target/release/examples/frames 4 3
+//! ```
+
+use lumen_detect::{ContactKind, Detector, Method, Scene};
+use lumen_scene::colon::{generate, ColonParams};
+use lumen_scene::endoscope::Insertion;
+use std::time::Instant;
+
+const FRAMES: usize = 64;
+
+fn main() {
+    let arg = |i: usize, default: usize| std::env::args().nth(i).map_or(default, |s| s.parse().expect("arguments: [precision x] [passes]"));
+    let (x, passes) = (arg(1, 4) as u32, arg(2, 20).max(2));
+    let colon = generate(&ColonParams::seeded(7));
+    let mut spec = None;
+    let states: Vec<Vec<f32>> = Insertion { escapes: true, ..Insertion::default() }
+        .frames(&colon, FRAMES, 1000.0, 1.0, 7)
+        .map(|f| {
+            let scene = Scene::new().tube("colon", f.colon).rod("scope", f.scope).pair("scope", "colon", ContactKind::Interior).precision(x).method(Method::Signed);
+            spec.get_or_insert_with(|| scene.spec());
+            scene.state()
+        })
+        .collect();
+    let mut d = Detector::new(&spec.expect("frames")).expect("the scene is valid");
+    // One buffer rewritten every frame, as a physics engine writes its state in place.
+    let mut buf = states[0].clone();
+    let mut times = Vec::with_capacity(passes * FRAMES);
+    let mut contacts = 0;
+    for pass in 0..passes {
+        // Forward, then back: the scope pushes in and pulls out, never jumps.
+        let order: Box<dyn Iterator<Item = &Vec<f32>>> = if pass % 2 == 0 { Box::new(states.iter()) } else { Box::new(states.iter().rev()) };
+        for state in order {
+            buf.copy_from_slice(state);
+            let t0 = Instant::now();
+            let n = d.detect_prevalidated(&buf).expect("length checked").len();
+            // The first pass warms up.
+            if pass > 0 {
+                times.push(t0.elapsed().as_secs_f64() * 1e6);
+                contacts += n;
+            }
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let frames = times.len();
+    println!("x = {x}: median {:.1} us per frame over {frames} frames, p99 {:.1} us, {:.1} contacts a frame", times[frames / 2], times[frames * 99 / 100], contacts as f64 / frames as f64);
+}
