@@ -69,7 +69,7 @@ impl Detector {
             })
             .collect();
         let pair_state = pairs.iter().map(|_| PairState::default()).collect();
-        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: 0, nearest: spec.nearest })
+        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: spec.refine, nearest: spec.nearest })
     }
 
     /// The scene this detector serves.
@@ -88,7 +88,8 @@ impl Detector {
         self.reset();
     }
 
-    /// Number of axial re-projections of the signed method (default 0). Each one moves the
+    /// Number of axial re-projections of the signed method (the spec's `refine`, default 0),
+    /// overriding the spec. Each one moves the
     /// evaluated section to the foot of the last estimate, which helps where the wall slopes
     /// steeply along the tube, at the cost of one more evaluation per sample.
     pub fn set_refine(&mut self, refine: u32) {

@@ -205,6 +205,17 @@ fn hard_folds_sharper_than_the_rod() {
     assert!(errs[0] < 0.3 && errs[1] < 0.15 && errs[2] < 0.07, "depth error by refinement: {errs:?}");
 }
 
+#[test]
+fn a_scene_declares_its_refinement() {
+    // The spec's `refine` is the detector's: the same contacts as set on the detector, and the
+    // refined depths nearer the reference on folds sharper than the rod.
+    let (colon, scope) = haustral(3.0, 25.0);
+    let declared = detect_with(&interior(colon.clone(), scope.clone(), 4, Method::Signed).refine(1), |_| {});
+    assert_eq!(declared, with_refine(&colon, &scope, 1));
+    let (once, never) = (agree(&colon, &scope, 4, &declared, 0.1).worst, agree(&colon, &scope, 4, &with_refine(&colon, &scope, 0), 0.1).worst);
+    assert!(once < 0.6 * never, "depth error {once} refined once, {never} never");
+}
+
 fn with_nearest(colon: &Tube, scope: &Rod, on: bool) -> Vec<Contact> {
     signed_with(colon, scope, |d| d.set_nearest(on))
 }

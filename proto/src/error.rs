@@ -27,6 +27,8 @@ pub enum SpecError {
     BadPair { pair: usize, a: String, b: String, reason: &'static str },
     #[error("precision x = {0}; between 1 and {max} samples per segment are allowed", max = crate::limits::MAX_PRECISION)]
     Precision(u32),
+    #[error("refine = {0}; between 0 and {max} re-projections are allowed", max = crate::limits::MAX_REFINE)]
+    Refine(u32),
     #[error("alpha = {0}; the Catmull-Rom parameter must lie in [0, 1]")]
     Alpha(f32),
     #[error("margin = {0}; the contact margin must be finite and >= 0")]

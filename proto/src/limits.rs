@@ -15,5 +15,7 @@ pub const MAX_BODIES: usize = 64;
 pub const MAX_PAIRS: usize = 256;
 /// Highest precision `x` (samples per segment).
 pub const MAX_PRECISION: u32 = 64;
+/// Most axial re-projections (`refine`) of the signed method.
+pub const MAX_REFINE: u32 = 4;
 /// Most `f32` values in one frame's state (64 MiB of floats).
 pub const MAX_STATE_FLOATS: usize = 16 * 1024 * 1024;

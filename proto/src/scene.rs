@@ -45,6 +45,14 @@ pub struct SceneSpec {
     /// tube is wide) the cross-section's reading is the one a physics engine stays stable on.
     #[serde(default)]
     pub nearest: bool,
+    /// `signed` only: axial re-projections of every sample's section reading (0 to 4, default
+    /// 0). Each moves the section to the foot of the last reading and reads the sample again
+    /// there, which removes most of the error of a wall sloped along the tube (on the generated
+    /// colon, depth error p99 0.040 -> 0.010 mm and normal error p99 4.0 -> 2.5 degrees with 1)
+    /// for about 1.6 times the detection time: every sample is read in full, where without it
+    /// a sample clear of the wall stops at its sector.
+    #[serde(default)]
+    pub refine: u32,
 }
 
 fn default_precision() -> u32 {
@@ -159,7 +167,7 @@ impl BodySpec {
 impl SceneSpec {
     /// A scene of these bodies and pairs with default precision, alpha, margin and method.
     pub fn new(bodies: Vec<BodySpec>, pairs: Vec<PairSpec>) -> Self {
-        Self { bodies, pairs, precision: default_precision(), alpha: default_alpha(), margin: 0.0, method: Method::default(), nearest: false }
+        Self { bodies, pairs, precision: default_precision(), alpha: default_alpha(), margin: 0.0, method: Method::default(), nearest: false, refine: 0 }
     }
 
     /// Index of the body called `name`.
@@ -180,6 +188,9 @@ impl SceneSpec {
         }
         if !(1..=MAX_PRECISION).contains(&self.precision) {
             return Err(SpecError::Precision(self.precision));
+        }
+        if self.refine > MAX_REFINE {
+            return Err(SpecError::Refine(self.refine));
         }
         if !(0.0..=1.0).contains(&self.alpha) {
             return Err(SpecError::Alpha(self.alpha));
@@ -248,6 +259,9 @@ mod tests {
         assert!(!parsed.nearest, "contacts in the sample's own section unless declared");
         let on: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""nearest":true,"pairs""#)).unwrap();
         assert!(on.nearest);
+        assert_eq!(parsed.refine, 0, "one reading per sample unless declared");
+        let refined: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""refine":2,"pairs""#)).unwrap();
+        assert_eq!((refined.refine, refined.validate().is_ok()), (2, true));
         assert_eq!(serde_json::from_str::<SceneSpec>(&serde_json::to_string(&on).unwrap()).unwrap(), on);
     }
 
@@ -271,5 +285,8 @@ mod tests {
         let mut s = spec();
         s.precision = 0;
         assert_eq!(s.validate(), Err(SpecError::Precision(0)));
+        let mut s = spec();
+        s.refine = 5;
+        assert!(s.validate().unwrap_err().to_string().contains("refine = 5; between 0 and 4"));
     }
 }

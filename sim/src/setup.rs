@@ -154,6 +154,7 @@ pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
     spec.precision = sim.precision;
     spec.margin = sim.margin_mm;
     spec.nearest = sim.nearest;
+    spec.refine = sim.refine;
     spec
 }
 

@@ -82,12 +82,6 @@ impl InProcess {
         Ok(Self { detector, state, written: false })
     }
 
-    /// Sets the detector's axial re-projections ([`Detector::set_refine`]).
-    pub fn with_refine(mut self, refine: u32) -> Self {
-        self.detector.set_refine(refine);
-        self
-    }
-
     /// The detector (for its statistics).
     pub fn detector(&self) -> &Detector {
         &self.detector
@@ -170,9 +164,9 @@ pub struct SimParams {
     /// Stretch projections per substep, alternating sweep directions (default 2: a second
     /// sweep from the other end carries the hand's push along the whole scope).
     pub stretch_passes: u32,
-    /// Axial re-projections of the in-process detector ([`Detector::set_refine`]; default 0,
-    /// as the daemon runs). 1 sees folds and bulge flanks ahead of a sample sooner, for about
-    /// 30% more detection time.
+    /// Axial re-projections of every section reading (the spec's `refine`; default 0), in
+    /// process or through the daemon alike. 1 sees folds and bulge flanks ahead of a sample
+    /// sooner, for more detection time.
     pub refine: u32,
     /// Contacts at the nearest point of the continuous wall (the spec's `nearest`; default
     /// true). The sections' own readings (off) measure a sample against its section's tangent
@@ -350,7 +344,7 @@ impl World<InProcess> {
     /// [`setup::insertion_pose`].
     pub fn in_process(tube: &Tube, config: SimConfig) -> Result<Self, SimError> {
         let spec = setup::scene_spec(tube, &config.rod, &config.sim);
-        let source = InProcess::new(&spec).map_err(SimError::Spec)?.with_refine(config.sim.refine);
+        let source = InProcess::new(&spec).map_err(SimError::Spec)?;
         Self::new(tube, config, source)
     }
 }

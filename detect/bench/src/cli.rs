@@ -28,8 +28,9 @@ pub struct DetectArgs {
     /// Spoke counts B, comma-separated.
     #[arg(long, value_delimiter = ',')]
     pub spokes: Option<Vec<usize>>,
-    /// Methods, comma-separated: default, nearest (the default with contacts at the nearest
-    /// point of the continuous wall), thesis, parry.
+    /// Methods, comma-separated: default, refined (the default with one axial re-projection),
+    /// nearest (the default with contacts at the nearest point of the continuous wall), thesis,
+    /// parry.
     #[arg(long, value_delimiter = ',', value_parser = parse_method)]
     pub methods: Option<Vec<MethodKind>>,
     /// Frames per scene (1 mm of insertion each).
@@ -75,7 +76,7 @@ pub struct DetectArgs {
 }
 
 fn parse_method(s: &str) -> Result<MethodKind, String> {
-    MethodKind::parse(s.trim()).ok_or_else(|| format!("unknown method {s:?} (default, nearest, thesis or parry)"))
+    MethodKind::parse(s.trim()).ok_or_else(|| format!("unknown method {s:?} (default, refined, nearest, thesis or parry)"))
 }
 
 impl DetectArgs {

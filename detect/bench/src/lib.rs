@@ -82,19 +82,23 @@ pub enum MethodKind {
     /// The default method with contacts at the nearest point of the continuous wall (the
     /// spec's `nearest`).
     Nearest,
+    /// The default method with one axial re-projection of every reading (the spec's
+    /// `refine: 1`).
+    Refined,
     Parry,
 }
 
 impl MethodKind {
-    /// All four, in report order.
-    pub const ALL: [MethodKind; 4] = [MethodKind::Default, MethodKind::Nearest, MethodKind::Thesis, MethodKind::Parry];
+    /// All five, in report order.
+    pub const ALL: [MethodKind; 5] = [MethodKind::Default, MethodKind::Refined, MethodKind::Nearest, MethodKind::Thesis, MethodKind::Parry];
 
-    /// `thesis`, `default`, `nearest` or `parry`.
+    /// `thesis`, `default`, `refined`, `nearest` or `parry`.
     pub fn name(self) -> &'static str {
         match self {
             MethodKind::Thesis => "thesis",
             MethodKind::Default => "default",
             MethodKind::Nearest => "nearest",
+            MethodKind::Refined => "refined",
             MethodKind::Parry => "parry",
         }
     }

@@ -196,10 +196,11 @@ fn short(v: f64) -> String {
 fn method_rank(m: &str) -> usize {
     match m {
         "default" => 0,
-        "nearest" => 1,
-        "thesis" => 2,
-        "parry" => 3,
-        _ => 4,
+        "refined" => 1,
+        "nearest" => 2,
+        "thesis" => 3,
+        "parry" => 4,
+        _ => 5,
     }
 }
 
@@ -477,6 +478,7 @@ impl Report {
             let colour = |m: &str| match m {
                 "default" => RGBColor(0, 114, 178),
                 "nearest" => RGBColor(204, 121, 167),
+                "refined" => RGBColor(86, 180, 233),
                 "thesis" => RGBColor(213, 94, 0),
                 "parry" => RGBColor(0, 158, 115),
                 _ => RGBColor(80, 80, 80),

@@ -47,6 +47,7 @@ pub fn spec_for(scene: &SceneData, x: u32, method: MethodKind) -> SceneSpec {
         _ => Method::Signed,
     };
     s.nearest = method == MethodKind::Nearest;
+    s.refine = u32::from(method == MethodKind::Refined);
     s
 }
 

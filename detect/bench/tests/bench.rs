@@ -257,7 +257,7 @@ fn tiny() -> Options {
 fn tiny_sweep_writes_a_complete_report() {
     let opts = tiny();
     let report = lumen_bench::run(&opts, false).unwrap();
-    assert_eq!(report.runs.len(), 2 * 4);
+    assert_eq!(report.runs.len(), 2 * 5);
     assert_eq!(report.scenes.len(), 1);
     let s = &report.scenes[0];
     assert_eq!((s.spokes, s.frames, s.eval_frames.clone()), (12, 10, vec![0, 5]));
@@ -273,15 +273,17 @@ fn tiny_sweep_writes_a_complete_report() {
         let th = report.run("generated", "thesis", 12, x).unwrap();
         let pa = report.run("generated", "parry", 12, x).unwrap();
         let ne = report.run("generated", "nearest", 12, x).unwrap();
+        let re = report.run("generated", "refined", 12, x).unwrap();
         // Ratios against oneself are exactly 1; the others are each other's inverses.
         assert_eq!(d.time_vs_default, Some(1.0));
         assert_eq!(th.speedup_vs_thesis, Some(1.0));
         assert_eq!(pa.speedup_vs_parry, Some(1.0));
         assert!(d.speedup_vs_thesis.unwrap() > 0.0 && d.speedup_vs_parry.unwrap() > 0.0);
-        assert!(ne.time_vs_default.unwrap() > 0.0);
-        // All four judged on the same samples.
+        assert!(ne.time_vs_default.unwrap() > 0.0 && re.time_vs_default.unwrap() > 0.0);
+        // All five judged on the same samples.
         assert_eq!(d.metrics.escaped_total, th.metrics.escaped_total);
         assert_eq!(d.metrics.escaped_total, ne.metrics.escaped_total);
+        assert_eq!(d.metrics.escaped_total, re.metrics.escaped_total);
         assert_eq!(d.metrics.penetrating_dense, pa.metrics.penetrating_dense);
         assert!(d.metrics.contacts_evaluated > 0, "the scope presses on the wall");
     }
@@ -298,12 +300,12 @@ fn tiny_sweep_writes_a_complete_report() {
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("| generated | 12 | 101 | 2 | default |"), "{md}");
     let svg = std::fs::read_to_string(dir.join("speed_vs_error.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("scene: generated") && svg.contains("default") && svg.contains("nearest"));
+    assert!(svg.starts_with("<svg") && svg.contains("scene: generated") && svg.contains("default") && svg.contains("refined") && svg.contains("nearest"));
 
     // The JSON: the keys the issue requires on every run, the revision and the machine.
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     let runs = json["runs"].as_array().unwrap();
-    assert_eq!(runs.len(), 8);
+    assert_eq!(runs.len(), 10);
     let keys = [
         "scene", "method", "x", "spokes", "rings", "median_us", "p99_us", "speedup_vs_thesis", "speedup_vs_parry", "missed", "false_contacts",
         "depth_err_p99_mm", "depth_err_max_mm", "normal_err_p99_deg", "escaped_detected", "escaped_total",
@@ -312,14 +314,14 @@ fn tiny_sweep_writes_a_complete_report() {
         for k in keys {
             assert!(r.get(k).is_some(), "run without {k}: {r}");
         }
-        assert!(["thesis", "default", "nearest", "parry"].contains(&r["method"].as_str().unwrap()));
+        assert!(["thesis", "default", "refined", "nearest", "parry"].contains(&r["method"].as_str().unwrap()));
         assert_eq!(r["scene"], "generated");
         assert_eq!(r["spokes"], 12);
     }
     assert!(!json["git_revision"].as_str().unwrap().is_empty());
     // It reads back, so --replot can redraw it.
     let back = lumen_bench::Report::from_json(&json.to_string()).unwrap();
-    assert_eq!(back.runs.len(), 8);
+    assert_eq!(back.runs.len(), 10);
     assert_eq!(back.markdown(), report.markdown());
     assert!(json["machine"]["cores"].as_u64().unwrap() >= 1);
     assert!(!json["machine"]["cpu"].as_str().unwrap().is_empty());

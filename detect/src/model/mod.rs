@@ -211,6 +211,7 @@ pub struct Scene {
     pub margin: f32,
     pub method: Method,
     pub nearest: bool,
+    pub refine: u32,
 }
 
 impl Scene {
@@ -247,6 +248,11 @@ impl Scene {
         self.nearest = on;
         self
     }
+    /// Axial re-projections of every section reading (`SceneSpec::refine`).
+    pub fn refine(mut self, n: u32) -> Self {
+        self.refine = n;
+        self
+    }
     /// The spec of this scene.
     pub fn spec(&self) -> SceneSpec {
         let bodies = self.bodies.iter().map(|(name, b)| BodySpec { name: name.clone(), shape: b.shape() }).collect();
@@ -260,6 +266,7 @@ impl Scene {
         s.margin = self.margin;
         s.method = self.method;
         s.nearest = self.nearest;
+        s.refine = self.refine;
         s
     }
     /// The frame state of this scene, bodies in order.
