@@ -476,8 +476,10 @@ impl Around {
                 }
             }
         }
-        // A tip takes its side from the sector test: any tip in play needs the point inside.
-        if tips && !(o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n) > 0.0) {
+        // A tip takes its side from the sector test: any tip in play needs the point inside
+        // (a NaN, from a degenerate section, counts as outside there).
+        let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
+        if tips && (inner <= 0.0 || inner.is_nan()) {
             return None;
         }
         Some(best.1)
