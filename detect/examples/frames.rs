@@ -1,4 +1,4 @@
-//! Times the default method frame by frame on the criterion scene (the generated colon, seed 7,
+//! Times the signed method frame by frame on the criterion scene (the generated colon, seed 7,
 //! 1,250 rings x 32 spokes; the 160-point scope inserted 1 m and advancing 1 mm a frame, the wall
 //! deformed where pressed), over and over, and prints the median. A driver for profilers, where
 //! `lumen bench detect` would spend its time on the reference:
@@ -6,6 +6,7 @@
 //! ```sh
 //! cargo build --release -p lumen-detect --example frames
 //! target/release/examples/frames 4 30                    # precision x, passes over 64 frames
+//! target/release/examples/frames 4 30 nearest            # or refined: the spec's settings
 //! valgrind --tool=callgrind --toggle-collect='*detect_prevalidated*' target/release/examples/frames 4 3
 //! ```
 
@@ -19,12 +20,19 @@ const FRAMES: usize = 64;
 fn main() {
     let arg = |i: usize, default: usize| std::env::args().nth(i).map_or(default, |s| s.parse().expect("arguments: [precision x] [passes]"));
     let (x, passes) = (arg(1, 4) as u32, arg(2, 20).max(2));
+    let setting = std::env::args().nth(3).unwrap_or_else(|| "default".into());
+    let (nearest, refine) = match setting.as_str() {
+        "default" => (false, 0),
+        "refined" => (false, 1),
+        "nearest" => (true, 0),
+        other => panic!("setting {other:?}: default, refined or nearest"),
+    };
     let colon = generate(&ColonParams::seeded(7));
     let mut spec = None;
     let states: Vec<Vec<f32>> = Insertion { escapes: true, ..Insertion::default() }
         .frames(&colon, FRAMES, 1000.0, 1.0, 7)
         .map(|f| {
-            let scene = Scene::new().tube("colon", f.colon).rod("scope", f.scope).pair("scope", "colon", ContactKind::Interior).precision(x).method(Method::Signed);
+            let scene = Scene::new().tube("colon", f.colon).rod("scope", f.scope).pair("scope", "colon", ContactKind::Interior).precision(x).method(Method::Signed).nearest(nearest).refine(refine);
             spec.get_or_insert_with(|| scene.spec());
             scene.state()
         })
@@ -50,5 +58,5 @@ fn main() {
     }
     times.sort_by(f64::total_cmp);
     let frames = times.len();
-    println!("x = {x}: median {:.1} us per frame over {frames} frames, p99 {:.1} us, {:.1} contacts a frame", times[frames / 2], times[frames * 99 / 100], contacts as f64 / frames as f64);
+    println!("{setting}, x = {x}: median {:.1} us per frame over {frames} frames, p99 {:.1} us, {:.1} contacts a frame", times[frames / 2], times[frames * 99 / 100], contacts as f64 / frames as f64);
 }

@@ -52,7 +52,7 @@
 //! wall faces the other way (a fold of the surface) is not taken: the foot `W0` stands, at its
 //! own distance.
 
-use crate::section::{Axial, Gap, TubeCache};
+use crate::section::{next, prev, Axial, Gap, TubeCache};
 use crate::view::TubeView;
 use crate::V3;
 
@@ -87,7 +87,7 @@ struct Local {
 
 fn local(t: &TubeView, cache: &mut TubeCache, at: Patch) -> Local {
     let b = t.spokes;
-    let k1 = (at.k + 1) % b;
+    let k1 = next(at.k, b);
     let cubic = cache.cubic(t, at.seg);
     let (a0, a1) = (t.spoke(at.seg, at.k), t.spoke(at.seg + 1, at.k));
     let (b0, b1) = (t.spoke(at.seg, k1), t.spoke(at.seg + 1, k1));
@@ -214,7 +214,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         let keep2 = if within > 0.0 { end.d2.max((within + reach) * (within + reach)) } else { end.d2 };
         let axis = (cache.ring(t, from.seg).n * (1.0 - start.u) + cache.ring(t, from.seg + 1).n * start.u).try_normalize(0.0);
         let consider = |cache: &mut TubeCache, seeds: &mut Seeds, seg: usize, u: f32| {
-            for (k, l) in [((start.k + b - 1) % b, 0.5), (start.k, start.l), ((start.k + 1) % b, 0.5)] {
+            for (k, l) in [(prev(start.k, b), 0.5), (start.k, start.l), (next(start.k, b), 0.5)] {
                 let at = Patch { seg, u, k, l };
                 let here = local(t, cache, at);
                 let d2 = (p - here.s).norm_squared();
@@ -531,7 +531,7 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
 fn across_edges(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here: Local, eu: i8, el: i8, pin_u: &mut i8, pin_l: &mut i8) -> (Patch, Local) {
     let b = t.spokes;
     if el != 0 {
-        let across = if el < 0 { Patch { k: (at.k + b - 1) % b, l: 1.0, ..at } } else { Patch { k: (at.k + 1) % b, l: 0.0, ..at } };
+        let across = if el < 0 { Patch { k: prev(at.k, b), l: 1.0, ..at } } else { Patch { k: next(at.k, b), l: 0.0, ..at } };
         match goes_on(t, cache, p, across, el, |w| w.sl) {
             Some(there) => (at, here) = (across, there),
             None => *pin_l = el,
