@@ -121,6 +121,24 @@ pub enum Reading {
     },
 }
 
+impl Reading {
+    /// Segment and sector: where next frame's walk starts.
+    pub fn place(&self) -> (usize, usize) {
+        match *self {
+            Reading::Gap(g) => (g.seg, g.k),
+            Reading::Clear { seg, k, .. } => (seg, k),
+        }
+    }
+
+    /// Squared distance from the section's midline point, and the section's size scale.
+    pub fn spread(&self) -> (f32, f32) {
+        match *self {
+            Reading::Gap(g) => (g.rho2, g.size),
+            Reading::Clear { rho2, size, .. } => (rho2, size),
+        }
+    }
+}
+
 /// How much farther than the reach, squared, a candidate must lie for the clearance test to
 /// call it clear without the full reading: a margin for the rounding of comparing squares
 /// where the full reading compares square roots (relative, ~1e-7 each).
@@ -425,6 +443,25 @@ impl TubeCache {
     }
 }
 
+/// The tips (of spokes `0 .. 4` of [`Around::vs`]) a reading weighs, given where the point
+/// projects along the three strips (`lam`) and whether no strip faced it (`none_yet`).
+///
+/// A tip can only be nearer than every strip when the point lies beyond both strips that meet
+/// there (in the section, a foot inside a strip is nearer than the strip's ends); degenerate
+/// strips (NaN) count as "beyond", and when no strip qualified, as on a collapsed patch, all are
+/// tried. The outer tips (ends of the outer strips) count too: with uneven spoke angles the
+/// nearest tip can lie a sector further round; the strip beyond them is not read, so only the
+/// near side is checked.
+#[inline]
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+fn tips_in_play(lam: [f32; 3], none_yet: bool) -> impl Iterator<Item = usize> {
+    [(1usize, lam[0], lam[1]), (2, lam[1], lam[2]), (0, f32::NAN, lam[0]), (3, lam[2], f32::NAN)]
+        .into_iter()
+        // Negated on purpose: NaN (a degenerate strip) counts as beyond.
+        .filter(move |&(_, before, after)| none_yet || (!(before < 1.0) && !(after > 0.0)))
+        .map(|(jt, _, _)| jt)
+}
+
 impl Around {
     /// The spoke of the nearest candidate if every candidate of [`Around::gap`] lies more than
     /// `reach` inside `p` (faces with `h < -reach`, tips farther than `reach` with the point
@@ -434,22 +471,19 @@ impl Around {
     /// `(e . N)^2` against `reach^2 |N|^2`, a tip's as its squared distance: the full reading's
     /// candidates and order, without its square roots and divisions by them.
     fn clear_by(&self, p: &V3, reach: f32) -> Option<usize> {
-        let Around { c, cprime, n, o, d, idx, vs, ds, scale, .. } = *self;
+        let Around { c, cprime, d, idx, vs, ds, scale, .. } = *self;
         let far2 = reach * reach * CLEAR_SLACK;
         // Faces the full reading would call degenerate (|N| <= 1e-12 scale^2), or nearly so.
         let tiny2 = 2.0 * (1e-12 * scale * scale).powi(2);
         let mut best = (f32::INFINITY, idx[1]);
         let mut lam = [0.0f32; 3];
         for j in 0..3 {
-            let (va, vb) = (vs[j], vs[j + 1]);
-            let w = vb - va;
-            let ww = w.norm_squared();
-            lam[j] = if ww > 0.0 { (d - va).dot(&w) / ww } else { f32::NAN };
+            let w;
+            (lam[j], w) = self.along_strip(j);
             if (0.0..=1.0).contains(&lam[j]) {
-                let su = cprime + ds[j] * (1.0 - lam[j]) + ds[j + 1] * lam[j];
-                let nrm = w.cross(&su) * o;
+                let nrm = self.face(j, lam[j]);
                 let len2 = nrm.norm_squared();
-                let h_len = (d - va - w * lam[j]).dot(&nrm);
+                let h_len = (d - vs[j] - w * lam[j]).dot(&nrm);
                 if !(len2 > tiny2 && h_len < 0.0 && h_len * h_len > far2 * len2) {
                     return None;
                 }
@@ -459,32 +493,54 @@ impl Around {
                 }
             }
         }
-        let none_yet = best.0 == f32::INFINITY;
         let mut tips = false;
-        for (jt, before, after) in [(1usize, lam[0], lam[1]), (2, lam[1], lam[2]), (0, f32::NAN, lam[0]), (3, lam[2], f32::NAN)] {
+        for jt in tips_in_play(lam, best.0 == f32::INFINITY) {
+            let tt = cprime + ds[jt];
+            let r = p - (c + vs[jt]);
+            let tt2 = tt.norm_squared();
+            let along = if tt2 > 0.0 { tt * (r.dot(&tt) / tt2) } else { V3::zeros() };
+            let perp2 = (r - along).norm_squared();
+            // Negated on purpose: NaN is not clear.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            if none_yet || (!(before < 1.0) && !(after > 0.0)) {
-                let tt = cprime + ds[jt];
-                let r = p - (c + vs[jt]);
-                let tt2 = tt.norm_squared();
-                let along = if tt2 > 0.0 { tt * (r.dot(&tt) / tt2) } else { V3::zeros() };
-                let perp2 = (r - along).norm_squared();
-                if !(perp2 > far2) {
-                    return None;
-                }
-                tips = true;
-                if perp2 < best.0 {
-                    best = (perp2, idx[jt]);
-                }
+            if !(perp2 > far2) {
+                return None;
+            }
+            tips = true;
+            if perp2 < best.0 {
+                best = (perp2, idx[jt]);
             }
         }
-        // A tip takes its side from the sector test: any tip in play needs the point inside
-        // (a NaN, from a degenerate section, counts as outside there).
-        let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
-        if tips && (inner <= 0.0 || inner.is_nan()) {
+        // A tip takes its side from the sector test: any tip in play needs the point inside.
+        if tips && self.outside() {
             return None;
         }
         Some(best.1)
+    }
+
+    /// Where `d` projects along strip `j` (spokes `j`, `j + 1` of `vs`), and the strip's edge
+    /// `w`: inside [0, 1] the point faces the strip; NaN for a degenerate strip.
+    #[inline]
+    fn along_strip(&self, j: usize) -> (f32, V3) {
+        let (va, vb) = (self.vs[j], self.vs[j + 1]);
+        let w = vb - va;
+        let ww = w.norm_squared();
+        (if ww > 0.0 { (self.d - va).dot(&w) / ww } else { f32::NAN }, w)
+    }
+
+    /// Outward normal of strip `j` at position `l` along it, unnormalised: `o (w x s_u)`.
+    #[inline]
+    fn face(&self, j: usize, l: f32) -> V3 {
+        let su = self.cprime + self.ds[j] * (1.0 - l) + self.ds[j + 1] * l;
+        (self.vs[j + 1] - self.vs[j]).cross(&su) * self.o
+    }
+
+    /// The sector test: whether the point lies outside its sector's wall edge, in the section
+    /// (a NaN, from a degenerate section, counts as outside).
+    #[inline]
+    fn outside(&self) -> bool {
+        let Around { n, o, d, vs, .. } = *self;
+        let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
+        inner <= 0.0 || inner.is_nan()
     }
 
     /// The full reading: the nearest of the three local strips or of the tips between them.
@@ -492,8 +548,7 @@ impl Around {
         let Around { seg, u, c, cprime, n, o, d, q, k, l, idx, vs, ds, mut not_star, scale } = *self;
         // Outward unit normal of strip j (spokes j, j+1 of `vs`) at position `l` along it.
         let face_normal = |j: usize, l: f32| -> Option<V3> {
-            let su = cprime + ds[j] * (1.0 - l) + ds[j + 1] * l;
-            let nrm = (vs[j + 1] - vs[j]).cross(&su) * o;
+            let nrm = self.face(j, l);
             let len = nrm.norm();
             (len > 1e-12 * scale * scale && len > 0.0).then(|| nrm / len)
         };
@@ -516,49 +571,32 @@ impl Around {
         // both ends of neighbouring strips it faces the tip between them.
         let mut lam = [0.0f32; 3];
         for j in 0..3 {
-            let (va, vb) = (vs[j], vs[j + 1]);
             // A wedge turning backwards is a fold: the section is not star-shaped here.
-            not_star |= o * va.cross(&vb).dot(&n) < 0.0;
-            let w = vb - va;
-            let ww = w.norm_squared();
-            lam[j] = if ww > 0.0 { (d - va).dot(&w) / ww } else { f32::NAN };
+            not_star |= o * vs[j].cross(&vs[j + 1]).dot(&n) < 0.0;
+            let w;
+            (lam[j], w) = self.along_strip(j);
             if (0.0..=1.0).contains(&lam[j]) {
                 if let Some(nf) = face_normal(j, lam[j]) {
-                    let h = (d - va - w * lam[j]).dot(&nf);
+                    let h = (d - vs[j] - w * lam[j]).dot(&nf);
                     if h.abs() < best.0 {
                         best = (h.abs(), h.signum(), idx[j], lam[j], nf, p - nf * h);
                     }
                 }
             }
         }
-        // A tip can only be nearer than every strip when the point lies beyond both strips that
-        // meet there (in the section, a foot inside a strip is nearer than the strip's ends).
-        // Degenerate strips (NaN) count as "beyond".
-        // (When nothing qualified, as on a collapsed patch, both tips are tried.)
-        let none_yet = best.0 == f32::INFINITY;
-        // The outer tips (ends of the outer strips) count too: with uneven spoke angles the
-        // nearest tip can lie a sector further round; the strip beyond them is not read, so only
-        // the near side is checked.
-        for (jt, before, after) in [(1usize, lam[0], lam[1]), (2, lam[1], lam[2]), (0, f32::NAN, lam[0]), (3, lam[2], f32::NAN)] {
-            // Negated on purpose: NaN (a degenerate strip) counts as beyond.
-            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            if none_yet || (!(before < 1.0) && !(after > 0.0)) {
-                let tip = c + vs[jt];
-                let tt = cprime + ds[jt];
-                let r = p - tip;
-                let along = tt.try_normalize(0.0).map_or(V3::zeros(), |dir| dir * r.dot(&dir));
-                let perp = r - along;
-                let dist = perp.norm();
-                if dist < best.0 {
-                    best = (dist, 1.0, idx[jt], 0.0, V3::zeros(), tip + along);
-                    vertex = Some(perp);
-                }
+        for jt in tips_in_play(lam, best.0 == f32::INFINITY) {
+            let tip = c + vs[jt];
+            let tt = cprime + ds[jt];
+            let r = p - tip;
+            let along = tt.try_normalize(0.0).map_or(V3::zeros(), |dir| dir * r.dot(&dir));
+            let perp = r - along;
+            let dist = perp.norm();
+            if dist < best.0 {
+                best = (dist, 1.0, idx[jt], 0.0, V3::zeros(), tip + along);
+                vertex = Some(perp);
             }
         }
-        // The sector test: which side of its sector's wall edge the point lies, in the section
-        // (a NaN, from a degenerate section, counts as outside).
-        let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
-        let outside = inner <= 0.0 || inner.is_nan();
+        let outside = self.outside();
         if let Some(perp) = vertex {
             let sign = if outside { 1.0 } else { -1.0 };
             best.1 = sign;

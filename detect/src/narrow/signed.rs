@@ -212,10 +212,7 @@ pub fn interior(
             } else {
                 Reading::Gap(cache.gap(t, &p, seg, u, k_guess, params.refine))
             };
-            let (rho2, size) = match read {
-                Reading::Gap(g) => (g.rho2, g.size),
-                Reading::Clear { rho2, size, .. } => (rho2, size),
-            };
+            let (rho2, size) = read.spread();
             // A walk that lands far from the midline has followed folded planes: re-acquire.
             let chord2 = (t.point(seg + 1) - t.point(seg)).norm_squared();
             let reach = 8.0 * size.max(chord2.sqrt()) + 2.0 * r;
@@ -253,26 +250,19 @@ pub fn interior(
                 continue;
             }
         };
-        let mut g = match reading {
-            Some(Reading::Gap(g)) => g,
-            Some(Reading::Clear { seg: cs, k, .. }) => {
-                // As a gap deeper than the margin would: the track moves, no contact.
-                shift = if tr.valid { cs as isize - tr.seg as isize } else { 0 };
-                tracks[s] = Track { seg: cs as u32, sector: k as u16, valid: true };
-                neighbour = Some(cs);
-                continue;
-            }
-            None => cache.gap(t, &p, seg, u, k_guess, params.refine),
+        // A clear sample keeps only its place, as a gap deeper than the margin would: no contact.
+        let read = match reading.unwrap_or_else(|| Reading::Gap(cache.gap(t, &p, seg, u, k_guess, params.refine))) {
+            Reading::Gap(g) if g.sd > 0.0 => Reading::Gap(second_opinion(t, cache, &p, g, params.refine)),
+            read => read,
         };
-        if g.sd > 0.0 {
-            g = second_opinion(t, cache, &p, g, params.refine);
-        }
+        let (at, k) = read.place();
         // The track keeps the section's own place: it is where next frame's walk starts.
         // A sample that had to re-acquire (it jumped, or its loop touches another) says
         // nothing about how the next one moved.
-        shift = if tr.valid && walked { g.seg as isize - tr.seg as isize } else { 0 };
-        tracks[s] = Track { seg: g.seg as u32, sector: g.k as u16, valid: true };
-        neighbour = Some(g.seg);
+        shift = if tr.valid && walked { at as isize - tr.seg as isize } else { 0 };
+        tracks[s] = Track { seg: at as u32, sector: k as u16, valid: true };
+        neighbour = Some(at);
+        let Reading::Gap(mut g) = read else { continue };
         let mut others = [None; MAX_OTHERS];
         if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || end) {
             let near = nearest(t, cache, &p, g, r, r + emit.margin, end);
