@@ -1,6 +1,7 @@
 //! `lumen bench ipc`: round trip (frame submitted -> contacts received) on the colon-sized
 //! scene, on each transport, back to back, paced at 1 kHz and with four paced sessions at once;
-//! each against a bare echo of the same payload over the same transport (no detection).
+//! each against a bare echo of the same payload over the same transport (no detection),
+//! measured in the same run in alternating blocks of frames, so both see the same machine.
 //!
 //! The daemon is the real `lumen serve`, started as a child process with a private iceoryx2
 //! prefix and zenoh port; the clients are threads of this process.
@@ -25,6 +26,8 @@ pub struct IpcRun {
     pub p999_us: f64,
     /// p50 of the bare echo, same transport, mode and payload.
     pub echo_p50_us: f64,
+    /// p99 of the bare echo: the transport's and the scheduler's own tail, with no detection.
+    pub echo_p99_us: f64,
     /// Median detection time reported by the daemon.
     pub detect_us: f64,
     /// p99 of the detection time: how much of the round trip's p99 detection alone explains.
@@ -59,16 +62,17 @@ impl IpcReport {
             self.cores,
             if self.quick { ", --quick" } else { "" }
         );
-        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | detect | detect p99 | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | echo p99 | detect | detect p99 | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for r in &self.runs {
             s += &format!(
-                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
+                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
                 r.transport,
                 r.mode,
                 r.p50_us,
                 r.p99_us,
                 r.p999_us,
                 r.echo_p50_us,
+                r.echo_p99_us,
                 r.detect_us,
                 r.detect_p99_us,
                 r.daemon_p50_us,
@@ -218,15 +222,12 @@ impl IpcBench {
             for (mode, n) in [(Mode::BackToBack, b2b), (Mode::Paced1kHz, paced)] {
                 bar.set_message(format!("{t} {mode:?}"));
                 let client = self.client(t)?;
-                let echo = measure(&client, &spec, &states, mode, n, true)?;
-                bar.inc(1);
-                let det = measure(&client, &spec, &states, mode, n, false)?;
-                bar.inc(1);
+                let (det, echo) = measure(&client, &spec, &states, mode, n)?;
+                bar.inc(2);
                 runs.push(summarise(t, if mode == Mode::BackToBack { "back-to-back" } else { "paced-1khz" }, det, echo));
             }
             bar.set_message(format!("{t} 4 sessions"));
-            let echo = self.sessions(t, 4, &spec, &states, paced / 2, true)?;
-            let det = self.sessions(t, 4, &spec, &states, paced / 2, false)?;
+            let (det, echo) = self.sessions(t, 4, &spec, &states, paced / 2)?;
             bar.inc(2);
             runs.push(summarise(t, "4-sessions", det, echo));
         }
@@ -243,26 +244,30 @@ impl IpcBench {
         })
     }
 
-    /// `k` sessions at 1 kHz each at once, one client thread per session.
-    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize, echo: bool) -> Result<Samples, Box<dyn std::error::Error>> {
+    /// `k` sessions at 1 kHz each at once, one client thread per session, each alternating
+    /// with an echo session of its own in the same blocks ([`BLOCK`]): the detection and the echo
+    /// of all `k` take turns together. Returns (detection, echo).
+    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize) -> Result<(Samples, Samples), Box<dyn std::error::Error>> {
         let start = Instant::now() + Duration::from_millis(300);
         let handles: Vec<_> = (0..k)
             .map(|_| {
                 let (spec, states) = (spec.clone(), states.clone());
                 let (prefix, endpoint) = (self.prefix.clone(), self.endpoint.clone());
-                std::thread::spawn(move || -> Result<Samples, String> {
+                std::thread::spawn(move || -> Result<(Samples, Samples), String> {
                     let me = IpcBench { quick: true, stand_in: false, frames: None, transports: vec![], prefix, endpoint };
                     let client = me.client(t).map_err(|e| e.to_string())?;
                     std::thread::sleep(start.saturating_duration_since(Instant::now()));
-                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, echo).map_err(|e| e.to_string())
+                    measure(&client, &spec, &states, Mode::Paced1kHz, frames).map_err(|e| e.to_string())
                 })
             })
             .collect();
-        let mut all = Samples::default();
+        let (mut det, mut echo) = (Samples::default(), Samples::default());
         for h in handles {
-            all.merge(h.join().map_err(|_| "a session thread panicked")??);
+            let (d, e) = h.join().map_err(|_| "a session thread panicked")??;
+            det.merge(d);
+            echo.merge(e);
         }
-        Ok(all)
+        Ok((det, echo))
     }
 }
 
@@ -274,6 +279,7 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
         p99_us: quantile_us(&mut det.rtt_ns, 0.99),
         p999_us: quantile_us(&mut det.rtt_ns, 0.999),
         echo_p50_us: quantile_us(&mut echo.rtt_ns, 0.5),
+        echo_p99_us: quantile_us(&mut echo.rtt_ns, 0.99),
         detect_us: quantile_us(&mut det.detect_ns, 0.5),
         detect_p99_us: quantile_us(&mut det.detect_ns, 0.99),
         daemon_p50_us: det.daemon_p50_us.iter().sum::<f64>() / det.daemon_p50_us.len().max(1) as f64,
@@ -294,17 +300,32 @@ fn state_index(k: usize) -> usize {
     }
 }
 
-/// Submits `frames` frames (after a warm-up) and waits for each reply.
-fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize, echo: bool) -> Result<Samples, ClientError> {
-    let mut session: Session = if echo { client.open_echo_session(spec)? } else { client.open_session(spec)? };
+/// Frames one session submits before the other takes its turn: the detection and the bare echo
+/// are measured in alternating blocks of this many frames, so a change in the machine's load
+/// (this VM's medians move by 40% from one minute to the next) falls on both alike and
+/// `p50 - echo - detect` compares like with like.
+const BLOCK: usize = 100;
+
+/// Submits `frames` frames to a detecting session and as many to an echo session of the same
+/// spec, in alternating blocks after a warm-up of each, waiting for each reply; paced, one frame
+/// per millisecond whichever session it goes to. Returns (detection, echo).
+fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize) -> Result<(Samples, Samples), ClientError> {
+    let mut sessions: [Session; 2] = [client.open_session(spec)?, client.open_echo_session(spec)?];
     let warm = (frames / 10).max(50);
-    let mut out = Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), ..Samples::default() };
+    let mut out: [Samples; 2] = std::array::from_fn(|_| Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), ..Samples::default() });
+    // Frames each session has submitted: its own sequence, so its scope moves continuously.
+    let mut sent = [0usize; 2];
     let start = Instant::now();
-    for k in 0..warm + frames {
+    for tick in 0..2 * (warm + frames) {
+        // Both warm up first; then blocks take turns, and whichever still has frames goes on.
+        let turn = if tick < 2 * warm { tick / warm } else { (tick - 2 * warm) / BLOCK % 2 };
+        let which = if sent[turn] < warm + frames { turn } else { 1 - turn };
         if mode == Mode::Paced1kHz {
-            let due = start + Duration::from_micros(1000 * k as u64);
+            let due = start + Duration::from_micros(1000 * tick as u64);
             std::thread::sleep(due.saturating_duration_since(Instant::now()));
         }
+        let (session, out, k) = (&mut sessions[which], &mut out[which], sent[which]);
+        sent[which] += 1;
         session.frame()?.copy_from_slice(&states[state_index(k)]);
         let n = session.submit()?;
         let measured = k >= warm;
@@ -333,8 +354,12 @@ fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, f
         }
     }
     // The daemon keeps its last 1024 service times: all of them from the measured frames.
-    if let Some(me) = client.status()?.sessions.iter().find(|x| x.session == session.id()) {
-        out.daemon_p50_us.push(me.service.p50_us);
+    let status = client.status()?;
+    for (session, out) in sessions.iter().zip(out.iter_mut()) {
+        if let Some(me) = status.sessions.iter().find(|x| x.session == session.id()) {
+            out.daemon_p50_us.push(me.service.p50_us);
+        }
     }
-    Ok(out)
+    let [det, echo] = out;
+    Ok((det, echo))
 }
