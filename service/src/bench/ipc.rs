@@ -7,6 +7,7 @@
 //! prefix and zenoh port; the clients are threads of this process.
 
 use super::scene;
+use super::wake::{self, Wake};
 use lumen_client::{now_ns, Client, Error as ClientError, LocalOptions, Session, Transport};
 use lumen_proto::{SceneSpec, StateLayout};
 use serde::Serialize;
@@ -47,20 +48,25 @@ pub struct IpcReport {
     pub scene: String,
     pub floats_per_frame: usize,
     pub quick: bool,
+    /// Microseconds the client works between a reply and its next frame, back to back.
+    pub think_us: u64,
     pub cores: usize,
     pub runs: Vec<IpcRun>,
+    /// The machine's floor: a one-byte round trip between two threads ([`super::wake`]).
+    pub wake: Vec<Wake>,
 }
 
 impl IpcReport {
     /// The table of `ipc.md` (and the README).
     pub fn markdown(&self) -> String {
         let mut s = format!(
-            "# lumen bench ipc\n\nScene: {} ({} floats = {:.0} KiB per frame). {} cores{}.\nRound trip = frame submitted -> contacts received, in microseconds; echo = same transport and payload, no detection.\n\n",
+            "# lumen bench ipc\n\nScene: {} ({} floats = {:.0} KiB per frame). {} cores{}{}.\nRound trip = frame submitted -> contacts received, in microseconds; echo = same transport and payload, no detection, alternating with the detection in blocks of {BLOCK} frames.\n\n",
             self.scene,
             self.floats_per_frame,
             self.floats_per_frame as f64 * 4.0 / 1024.0,
             self.cores,
-            if self.quick { ", --quick" } else { "" }
+            if self.quick { ", --quick" } else { "" },
+            if self.think_us > 0 { format!(", the client working {} us between a reply and its next frame back to back", self.think_us) } else { String::new() }
         );
         s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | echo p99 | detect | detect p99 | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for r in &self.runs {
@@ -81,6 +87,10 @@ impl IpcReport {
                 r.lost_frames
             );
         }
+        s += "\nThe machine's floor under every round trip, measured in the same run: one byte there and back between two threads over a Unix socket pair (no payload, no IPC library, no detection), the threads pinned to two cores or to one.\n\n| mode | threads on | p50 | p99 | p99.9 | round trips |\n|---|---|---:|---:|---:|---:|\n";
+        for w in &self.wake {
+            s += &format!("| {} | {} | {:.1} | {:.1} | {:.1} | {} |\n", w.mode, w.cores, w.p50_us, w.p99_us, w.p999_us, w.round_trips);
+        }
         s
     }
 }
@@ -99,6 +109,9 @@ pub struct IpcBench {
     pub stand_in: bool,
     /// Frames per measurement instead of 1,500 (`--quick`) or 10,000.
     pub frames: Option<usize>,
+    /// Back to back, how long the client works (spins) between a reply and its next frame, as
+    /// a physics step would; zero: it submits at once.
+    pub think: Duration,
     transports: Vec<Transport>,
     prefix: String,
     endpoint: String,
@@ -190,7 +203,7 @@ impl IpcBench {
             Some(o) => return Err(format!("unknown transport {o:?}: use iceoryx2 or zenoh")),
         };
         let prefix = format!("lumen_bench_{}_", std::process::id());
-        Ok(Self { quick, stand_in: false, frames: None, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
+        Ok(Self { quick, stand_in: false, frames: None, think: Duration::ZERO, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
     }
 
     fn client(&self, t: Transport) -> Result<Client, ClientError> {
@@ -222,7 +235,8 @@ impl IpcBench {
             for (mode, n) in [(Mode::BackToBack, b2b), (Mode::Paced1kHz, paced)] {
                 bar.set_message(format!("{t} {mode:?}"));
                 let client = self.client(t)?;
-                let (det, echo) = measure(&client, &spec, &states, mode, n)?;
+                let think = if mode == Mode::BackToBack { self.think } else { Duration::ZERO };
+                let (det, echo) = measure(&client, &spec, &states, mode, n, think)?;
                 bar.inc(2);
                 runs.push(summarise(t, if mode == Mode::BackToBack { "back-to-back" } else { "paced-1khz" }, det, echo));
             }
@@ -231,6 +245,8 @@ impl IpcBench {
             bar.inc(2);
             runs.push(summarise(t, "4-sessions", det, echo));
         }
+        bar.set_message("the machine's wake-up");
+        let wake = wake::floor(n)?;
         bar.finish_and_clear();
         drop(_daemon); // SIGTERM: it releases its shared memory
         // The private prefix's node counter (iceoryx2 never removes it) and anything left.
@@ -239,8 +255,10 @@ impl IpcBench {
             scene: format!("{scene_name}, interior contacts, precision 4"),
             floats_per_frame: layout.floats,
             quick: self.quick,
+            think_us: self.think.as_micros() as u64,
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
             runs,
+            wake,
         })
     }
 
@@ -254,10 +272,10 @@ impl IpcBench {
                 let (spec, states) = (spec.clone(), states.clone());
                 let (prefix, endpoint) = (self.prefix.clone(), self.endpoint.clone());
                 std::thread::spawn(move || -> Result<(Samples, Samples), String> {
-                    let me = IpcBench { quick: true, stand_in: false, frames: None, transports: vec![], prefix, endpoint };
+                    let me = IpcBench { quick: true, stand_in: false, frames: None, think: Duration::ZERO, transports: vec![], prefix, endpoint };
                     let client = me.client(t).map_err(|e| e.to_string())?;
                     std::thread::sleep(start.saturating_duration_since(Instant::now()));
-                    measure(&client, &spec, &states, Mode::Paced1kHz, frames).map_err(|e| e.to_string())
+                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, Duration::ZERO).map_err(|e| e.to_string())
                 })
             })
             .collect();
@@ -308,8 +326,9 @@ const BLOCK: usize = 100;
 
 /// Submits `frames` frames to a detecting session and as many to an echo session of the same
 /// spec, in alternating blocks after a warm-up of each, waiting for each reply; paced, one frame
-/// per millisecond whichever session it goes to. Returns (detection, echo).
-fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize) -> Result<(Samples, Samples), ClientError> {
+/// per millisecond whichever session it goes to; `think` spent busy before each frame.
+/// Returns (detection, echo).
+fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize, think: Duration) -> Result<(Samples, Samples), ClientError> {
     let mut sessions: [Session; 2] = [client.open_session(spec)?, client.open_echo_session(spec)?];
     let warm = (frames / 10).max(50);
     let mut out: [Samples; 2] = std::array::from_fn(|_| Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), ..Samples::default() });
@@ -320,6 +339,11 @@ fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, f
         // Both warm up first; then blocks take turns, and whichever still has frames goes on.
         let turn = if tick < 2 * warm { tick / warm } else { (tick - 2 * warm) / BLOCK % 2 };
         let which = if sent[turn] < warm + frames { turn } else { 1 - turn };
+        // Busy, as a physics step is: a sleep would measure the scheduler's wake-up instead.
+        let worked = Instant::now();
+        while worked.elapsed() < think {
+            std::hint::spin_loop();
+        }
         if mode == Mode::Paced1kHz {
             let due = start + Duration::from_micros(1000 * tick as u64);
             std::thread::sleep(due.saturating_duration_since(Instant::now()));

@@ -22,12 +22,17 @@ pub struct IpcArgs {
     /// Frames per measurement (default 1,500 with --quick, else 10,000; at least 10).
     #[arg(long, value_parser = clap::value_parser!(u32).range(10..))]
     pub frames: Option<u32>,
+    /// Back to back, the client works this many microseconds (busy) between a reply and its
+    /// next frame, as a physics step would (default 0: it submits at once).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=100_000))]
+    pub think_us: u64,
 }
 
 pub fn run(args: IpcArgs) -> CliResult {
     let mut bench = IpcBench::new(args.quick, args.only.as_deref())?;
     bench.stand_in = args.stand_in;
     bench.frames = args.frames.map(|n| n as usize);
+    bench.think = std::time::Duration::from_micros(args.think_us);
     let report: IpcReport = bench.run()?;
     std::fs::create_dir_all(&args.out)?;
     std::fs::write(args.out.join("ipc.json"), serde_json::to_string_pretty(&report)?)?;
