@@ -6,7 +6,7 @@
 //! The daemon is the real `lumen serve`, started as a child process with a private iceoryx2
 //! prefix and zenoh port; the clients are threads of this process.
 
-use super::scene;
+use super::{quantile_us, scene};
 use super::wake::{self, Wake};
 use lumen_client::{now_ns, Client, Error as ClientError, LocalOptions, Session, Transport};
 use lumen_proto::{SceneSpec, StateLayout};
@@ -134,15 +134,6 @@ impl Samples {
         self.lost += o.lost;
         self.daemon_p50_us.extend(o.daemon_p50_us);
     }
-}
-
-fn quantile_us(v: &mut [u64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_unstable();
-    let i = ((v.len() as f64 * q).ceil() as usize).clamp(1, v.len()) - 1;
-    v[i] as f64 / 1e3
 }
 
 /// The `lumen serve` child of the benchmark; stopped with SIGTERM when dropped.

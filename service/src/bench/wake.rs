@@ -8,6 +8,7 @@
 //! (`taskset -c 0`) took 6-18 us. A round-trip target below this floor cannot be met on that
 //! machine by anything the daemon does.
 
+use super::quantile_us;
 use serde::Serialize;
 use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
@@ -80,10 +81,9 @@ pub fn measure(n: usize, paced: bool, near_cpu: usize, far_cpu: usize) -> std::i
     });
     let mut rtt = timer.join().map_err(|_| std::io::Error::other("the measuring thread panicked"))??;
     let _ = echo.join();
-    rtt.sort_unstable();
-    let q = |f: f64| rtt[((rtt.len() as f64 * f).ceil() as usize).clamp(1, rtt.len()) - 1] as f64 / 1e3;
     let cores = if near_cpu == far_cpu { "one core" } else { "two cores" };
-    Ok(Wake { mode: if paced { "paced-1khz" } else { "back-to-back" }.into(), cores: cores.into(), p50_us: q(0.5), p99_us: q(0.99), p999_us: q(0.999), round_trips: rtt.len() as u64 })
+    let (p50_us, p99_us, p999_us) = (quantile_us(&mut rtt, 0.5), quantile_us(&mut rtt, 0.99), quantile_us(&mut rtt, 0.999));
+    Ok(Wake { mode: if paced { "paced-1khz" } else { "back-to-back" }.into(), cores: cores.into(), p50_us, p99_us, p999_us, round_trips: rtt.len() as u64 })
 }
 
 /// The floor both ways (back to back, paced at 1 kHz), across two cores where the process may
