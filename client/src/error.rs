@@ -1,4 +1,5 @@
 use lumen_proto::session::{ControlError, ErrorCode, Transport};
+use lumen_transport::TransportError;
 use std::time::Duration;
 
 /// What went wrong, and what to do about it.
@@ -21,15 +22,16 @@ pub enum Error {
     /// `submit()` without a frame written since the last one.
     #[error("no frame to submit: call frame() and write it first")]
     NoFrame,
+    /// An async wait was called outside a tokio runtime with I/O enabled.
+    #[error("contacts_async needs a tokio runtime with I/O enabled")]
+    NoRuntime,
     /// The observed session ended (its client left or the daemon stopped).
     #[error("session {0} ended")]
     SessionEnded(u64),
-    /// iceoryx2 failed (shared memory exhausted, permissions, incompatible service...).
-    #[error("iceoryx2: {0}")]
-    Iceoryx2(String),
-    /// zenoh failed (endpoint unreachable, bad configuration...).
-    #[error("zenoh: {0}")]
-    Zenoh(String),
+    /// The transport failed (iceoryx2: shared memory exhausted, permissions, incompatible
+    /// service; zenoh: endpoint unreachable, bad configuration...).
+    #[error(transparent)]
+    Transport(#[from] TransportError),
     /// The daemon sent something this client does not understand (version mismatch?).
     #[error("protocol: {0}")]
     Protocol(String),
@@ -44,11 +46,11 @@ impl Error {
         }
     }
 
-    pub(crate) fn iox(what: &str, e: impl std::fmt::Debug) -> Self {
-        Error::Iceoryx2(format!("{what}: {e:?}"))
+    pub(crate) fn iox(what: &str, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Error::Transport(TransportError::iceoryx2(what, e))
     }
 
-    pub(crate) fn zenoh(what: &str, e: impl std::fmt::Display) -> Self {
-        Error::Zenoh(format!("{what}: {e}"))
+    pub(crate) fn zenoh(what: &str, e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> Self {
+        Error::Transport(TransportError::zenoh(what, e))
     }
 }

@@ -95,12 +95,12 @@ impl Client {
     /// certificate authority in the PEM file `root_ca` (the daemon's certificate must be signed
     /// by it and name the host).
     pub fn zenoh_tls(endpoint: &str, root_ca: &std::path::Path) -> Result<Self, Error> {
-        let mut config = remote::config("client", &[], &[endpoint.to_owned()])?;
+        let mut config = lumen_transport::net::config("client", &[], &[endpoint.to_owned()])?;
         if !root_ca.is_file() {
             return Err(Error::NoDaemon { transport: Transport::Zenoh, detail: format!("the TLS root certificate {} does not exist", root_ca.display()) });
         }
         let value = serde_json::to_string(&root_ca.display().to_string()).expect("a string");
-        config.insert_json5("transport/link/tls/root_ca_certificate", &value).map_err(|e| Error::zenoh("config transport/link/tls/root_ca_certificate", e))?;
+        lumen_transport::net::set(&mut config, "transport/link/tls/root_ca_certificate", &value)?;
         Ok(Self { inner: Inner::Zenoh(remote::ZenohClient::with_config(config, endpoint)?), name: default_name() })
     }
 

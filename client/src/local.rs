@@ -1,7 +1,7 @@
 //! The iceoryx2 transport: shared memory on this machine, woken by events, never polled.
 //!
 //! The daemon creates every session's services (sized from the spec); clients and observers
-//! open them. The QoS and channel helpers here are shared with the daemon so both sides agree.
+//! open them with the shapes, event ids and helpers of [`lumen_transport::shm`].
 
 use crate::control::{parse_reply, CONTROL_WAIT};
 use crate::view::ContactsView;
@@ -13,71 +13,14 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
 use iceoryx2::sample_mut::SampleMut;
-use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
-use lumen_proto::session::{ControlReply, ControlRequest, SessionInfo, Transport, CONTROL};
+use lumen_proto::session::{ControlReply, ControlRequest, SessionInfo, Transport};
+use lumen_transport::names::CONTROL;
+use lumen_transport::shm::{config, node, open_contacts, open_frame, service_name, ContactsService, Svc, EVENT_PEER_DIED, EVENT_SENT, LIVENESS_PERIOD};
+pub use lumen_transport::shm::{remove_prefix, shm_files};
 use lumen_proto::wire::{ContactsHeader, FrameHeader};
 use lumen_proto::{Contact, StateLayout};
 use std::rc::Rc;
 use std::time::{Duration, Instant};
-
-/// The iceoryx2 service flavour used throughout (inter-process, ports bound to their thread).
-pub type Svc = ipc::Service;
-/// A session's frame service: user header [`FrameHeader`], payload `[f32]`.
-pub type FrameService = publish_subscribe::PortFactory<Svc, [f32], FrameHeader>;
-/// A session's contacts service: user header [`ContactsHeader`], payload `[Contact]`.
-pub type ContactsService = publish_subscribe::PortFactory<Svc, [Contact], ContactsHeader>;
-/// An event service (paired with each publish-subscribe service, same name).
-pub type EventService = event::PortFactory<Svc>;
-/// The control service: JSON bytes both ways.
-pub type ControlService = request_response::PortFactory<Svc, [u8], (), [u8], ()>;
-
-/// Event sent after each frame / reply / control request.
-pub const EVENT_SENT: EventId = EventId::new(0);
-/// Event iceoryx2 raises when the notifier of a dead process is cleaned up.
-pub const EVENT_PEER_DIED: EventId = EventId::new(1);
-/// How often a blocked wait looks whether the other side died.
-pub const LIVENESS_PERIOD: Duration = Duration::from_millis(200);
-
-/// An iceoryx2 configuration with `prefix` (default settings otherwise; no config file is read).
-pub fn config(prefix: Option<&str>) -> Result<Config, Error> {
-    let mut c = Config::default();
-    if let Some(p) = prefix {
-        c.global.prefix = FileName::new(p.as_bytes()).map_err(|e| Error::iox(&format!("prefix {p:?} is not a valid file name prefix"), e))?;
-    }
-    Ok(c)
-}
-
-/// A node that leaves signals alone (the daemon handles them itself; a library must not).
-pub fn node(config: &Config, name: &str) -> Result<Node<Svc>, Error> {
-    let name = NodeName::new(name).map_err(|e| Error::iox("node name", e))?;
-    NodeBuilder::new()
-        .config(config)
-        .name(&name)
-        .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<Svc>()
-        .map_err(|e| Error::iox("creating the iceoryx2 node", e))
-}
-
-/// A service name, checked.
-pub fn service_name(name: &str) -> Result<ServiceName, Error> {
-    ServiceName::new(name).map_err(|e| Error::iox(&format!("service name {name:?}"), e))
-}
-
-/// Opens a session's frame service and its event service.
-pub fn open_frame(node: &Node<Svc>, name: &str) -> Result<(FrameService, EventService), Error> {
-    let n = service_name(name)?;
-    let ps = node.service_builder(&n).publish_subscribe::<[f32]>().user_header::<FrameHeader>().open().map_err(|e| Error::iox("opening the frame service", e))?;
-    let ev = node.service_builder(&n).event().open().map_err(|e| Error::iox("opening the frame event", e))?;
-    Ok((ps, ev))
-}
-
-/// Opens a session's contacts service and its event service.
-pub fn open_contacts(node: &Node<Svc>, name: &str) -> Result<(ContactsService, EventService), Error> {
-    let n = service_name(name)?;
-    let ps = node.service_builder(&n).publish_subscribe::<[Contact]>().user_header::<ContactsHeader>().open().map_err(|e| Error::iox("opening the contacts service", e))?;
-    let ev = node.service_builder(&n).event().open().map_err(|e| Error::iox("opening the contacts event", e))?;
-    Ok((ps, ev))
-}
 
 /// Waits until `listener` fires or `timeout` passes; returns whether a peer died.
 fn wait(listener: &Listener<Svc>, timeout: Duration) -> Result<bool, Error> {
@@ -303,7 +246,7 @@ impl LocalSession {
         self.last = None;
         let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
         if tokio::runtime::Handle::try_current().is_err() {
-            return Err(Error::iox("waiting asynchronously", "contacts_async needs a tokio runtime (with I/O enabled)"));
+            return Err(Error::NoRuntime);
         }
         // SAFETY (both): the descriptor belongs to the session's listener, which stays open and
         // the same until `fd` is dropped (the ports are replaced only through `&mut self`, which
@@ -362,11 +305,12 @@ impl LocalObserver {
     fn new(node: &Rc<Node<Svc>>, info: SessionInfo) -> Result<Self, Error> {
         let (frame, frame_event) = open_frame(node, &info.frame)?;
         let (contacts, contacts_event) = open_contacts(node, &info.contacts)?;
-        let full = |what: &str, e: &dyn std::fmt::Debug| Error::iox(&format!("{what} (at most {} observers per session)", info.max_observers), e);
-        let frames = frame.subscriber_builder().create().map_err(|e| full("subscribing to frames", &e))?;
-        let replies = contacts.subscriber_builder().create().map_err(|e| full("subscribing to contacts", &e))?;
-        let frame_listener = frame_event.listener_builder().create().map_err(|e| full("listening for frames", &e))?;
-        let contacts_listener = contacts_event.listener_builder().create().map_err(|e| full("listening for contacts", &e))?;
+        let max = info.max_observers;
+        let full = |what: &str| format!("{what} (at most {max} observers per session)");
+        let frames = frame.subscriber_builder().create().map_err(|e| Error::iox(&full("subscribing to frames"), e))?;
+        let replies = contacts.subscriber_builder().create().map_err(|e| Error::iox(&full("subscribing to contacts"), e))?;
+        let frame_listener = frame_event.listener_builder().create().map_err(|e| Error::iox(&full("listening for frames"), e))?;
+        let contacts_listener = contacts_event.listener_builder().create().map_err(|e| Error::iox(&full("listening for contacts"), e))?;
         Ok(Self { frame_sample: None, contacts_sample: None, contacts, frames, replies, frame_listener, contacts_listener, node: node.clone(), info, prefer_frame: true })
     }
 
@@ -415,60 +359,4 @@ fn poll2(a: &Listener<Svc>, b: &Listener<Svc>, timeout: Duration) -> i32 {
     // SAFETY: the descriptors belong to listeners that outlive the call; poll only reads them.
     let mut fds = [a, b].map(|l| libc::pollfd { fd: unsafe { l.file_descriptor().native_handle() }, events: libc::POLLIN, revents: 0 });
     unsafe { libc::poll(fds.as_mut_ptr(), 2, timeout.as_millis().clamp(1, i32::MAX as u128) as i32) }
-}
-
-/// Files in `/dev/shm` of iceoryx2 prefix `prefix`.
-pub fn shm_files(prefix: &str) -> Vec<String> {
-    entries_starting(std::path::Path::new("/dev/shm"), prefix)
-}
-
-fn entries_starting(dir: &std::path::Path, prefix: &str) -> Vec<String> {
-    std::fs::read_dir(dir).map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(prefix)).collect()).unwrap_or_default()
-}
-
-/// Removes everything iceoryx2 prefix `prefix` left behind, once every process that used it
-/// has exited: its files in `/dev/shm` (the per-prefix node counter, which iceoryx2 never
-/// removes itself, and whatever a process killed without cleaning up left there) and its
-/// service and node entries under iceoryx2's root directory. Only for a private prefix (one
-/// run's, one benchmark's): processes still using it would lose their shared memory. Returns
-/// what could not be removed.
-pub fn remove_prefix(prefix: &str) -> Vec<String> {
-    let mut failed = Vec::new();
-    let mut remove = |path: std::path::PathBuf| {
-        let r = if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
-        if let Err(e) = r {
-            if e.kind() != std::io::ErrorKind::NotFound {
-                failed.push(format!("{}: {e}", path.display()));
-            }
-        }
-    };
-    let shm = std::path::Path::new("/dev/shm");
-    for f in shm_files(prefix) {
-        remove(shm.join(f));
-    }
-    if let Ok(cfg) = config(Some(prefix)) {
-        let services = std::path::PathBuf::from(cfg.global.service_dir().to_string());
-        for f in entries_starting(&services, prefix) {
-            remove(services.join(f));
-        }
-        // Node entries are directories named by node id holding files named with the prefix.
-        let nodes = std::path::PathBuf::from(cfg.global.node_dir().to_string());
-        for f in entries_starting(&nodes, prefix) {
-            remove(nodes.join(f));
-        }
-        if let Ok(dirs) = std::fs::read_dir(&nodes) {
-            for d in dirs.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.is_dir()) {
-                let mine = entries_starting(&d, prefix);
-                if mine.is_empty() {
-                    continue;
-                }
-                for f in &mine {
-                    remove(d.join(f));
-                }
-                // The node's directory goes once it is empty (another prefix may share it).
-                let _ = std::fs::remove_dir(&d);
-            }
-        }
-    }
-    failed
 }

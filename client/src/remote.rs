@@ -4,29 +4,17 @@
 use crate::control::{parse_reply, unexpected, CONTROL_WAIT};
 use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
-use lumen_proto::session::{client_alive_name, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, CONTROL, DAEMON_ALIVE};
+use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport};
+use lumen_transport::names::{client_alive_name, CONTROL, DAEMON_ALIVE};
+use lumen_transport::net::{config, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use std::time::{Duration, Instant};
 use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Wait;
-
-/// A zenoh configuration: `mode` (`client`, `peer` or `router`), no multicast scouting, the
-/// given endpoints to listen on and to connect to.
-pub fn config(mode: &str, listen: &[String], connect: &[String]) -> Result<zenoh::Config, Error> {
-    let mut c = zenoh::Config::default();
-    let set = |c: &mut zenoh::Config, k: &str, v: String| c.insert_json5(k, &v).map_err(|e| Error::zenoh(&format!("config {k} = {v}"), e));
-    set(&mut c, "mode", format!("{mode:?}"))?;
-    set(&mut c, "scouting/multicast/enabled", "false".into())?;
-    set(&mut c, "scouting/gossip/enabled", "false".into())?;
-    set(&mut c, "listen/endpoints", serde_json::to_string(listen).expect("strings"))?;
-    set(&mut c, "connect/endpoints", serde_json::to_string(connect).expect("strings"))?;
-    Ok(c)
-}
 
 /// A client of a daemon reachable over zenoh.
 pub struct ZenohClient {
@@ -61,7 +49,7 @@ impl ZenohClient {
 
     pub(crate) fn observe(&self, info: SessionInfo) -> Result<ZenohObserver, Error> {
         let both = format!("{}/*", info.frame.rsplit_once('/').map_or(info.frame.as_str(), |(root, _)| root));
-        let sub = self.session.declare_subscriber(both).with(RingChannel::new(16)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
+        let sub = self.session.declare_subscriber(both).with(RingChannel::new(OBSERVER_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
         // The session lives while its client's liveliness token and the daemon's do.
         let watch = |key: &str| self.session.liveliness().declare_subscriber(key).wait().map_err(|e| Error::zenoh(&format!("watching {key}"), e));
         let ended = [watch(&info.alive)?, watch(DAEMON_ALIVE)?];
@@ -105,10 +93,10 @@ struct Channels {
 impl Channels {
     fn declare(z: &zenoh::Session, info: &SessionInfo) -> Result<Self, Error> {
         let token = z.liveliness().declare_token(client_alive_name(info.session)).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
-        let replies = z.declare_subscriber(info.contacts.clone()).with(RingChannel::new(8)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
+        let replies = z.declare_subscriber(info.contacts.clone()).with(RingChannel::new(CONTACTS_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
         let publisher = z
             .declare_publisher(info.frame.clone())
-            .congestion_control(CongestionControl::Block)
+            .congestion_control(CONGESTION)
             .express(true)
             .wait()
             .map_err(|e| Error::zenoh("declaring the frame publisher", e))?;
@@ -245,7 +233,7 @@ impl ZenohSession {
         loop {
             let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
             let left = deadline.saturating_duration_since(Instant::now());
-            match ch.replies.recv_timeout(left.min(crate::local::LIVENESS_PERIOD)) {
+            match ch.replies.recv_timeout(left.min(lumen_transport::shm::LIVENESS_PERIOD)) {
                 Ok(Some(s)) => return self.accept(s),
                 Ok(None) => {}
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),

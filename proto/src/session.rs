@@ -1,4 +1,4 @@
-//! Control messages (JSON, on both transports) and the names of each session's channels.
+//! Control messages (JSON, on both transports).
 //!
 //! A client sends a [`ControlRequest`] to the daemon's control channel (iceoryx2
 //! request-response service `lumen/control`, or zenoh queryable key `lumen/control`) and gets
@@ -9,29 +9,9 @@ use crate::scene::SceneSpec;
 use crate::state::StateLayout;
 use serde::{Deserialize, Serialize};
 
-/// Root of every service name and key expression.
-pub const ROOT: &str = "lumen";
-/// The control channel: iceoryx2 request-response service name and zenoh key expression.
-pub const CONTROL: &str = "lumen/control";
-/// Zenoh liveliness token the daemon holds while it runs.
-pub const DAEMON_ALIVE: &str = "lumen/daemon";
 /// Largest control request the daemon reads, in bytes (a spec with per-point radii of a long rod
 /// fits easily).
 pub const MAX_CONTROL_BYTES: usize = 4 * 1024 * 1024;
-
-/// Name of session `id`'s frame channel (iceoryx2 publish-subscribe + event service of the same
-/// name, or zenoh key).
-pub fn frame_name(id: u64) -> String {
-    format!("{ROOT}/session/{id}/frame")
-}
-/// Name of session `id`'s contacts channel (iceoryx2 publish-subscribe + event, or zenoh key).
-pub fn contacts_name(id: u64) -> String {
-    format!("{ROOT}/session/{id}/contacts")
-}
-/// Zenoh liveliness key the client of session `id` must hold while it lives.
-pub fn client_alive_name(id: u64) -> String {
-    format!("{ROOT}/session/{id}/client")
-}
 
 /// Which transport a session runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -132,11 +112,11 @@ pub struct SessionInfo {
     pub bodies: u32,
     /// Most contacts one reply carries; more are cut and flagged `FLAG_TRUNCATED`.
     pub max_contacts: u32,
-    /// Frame channel name (see [`frame_name`]).
+    /// Frame channel name (`lumen/session/<id>/frame`).
     pub frame: String,
-    /// Contacts channel name (see [`contacts_name`]).
+    /// Contacts channel name (`lumen/session/<id>/contacts`).
     pub contacts: String,
-    /// Zenoh: liveliness key the client must declare (see [`client_alive_name`]); the session
+    /// Zenoh: liveliness key the client must declare (`lumen/session/<id>/client`); the session
     /// is freed when it goes away. iceoryx2: empty (the client's frame publisher is its life).
     pub alive: String,
     /// iceoryx2: most observers (extra subscribers) the session's channels admit.
@@ -207,6 +187,5 @@ mod tests {
         assert_eq!(serde_json::to_string(&ControlRequest::Status).unwrap(), r#"{"op":"status"}"#);
         let e = ControlReply::Error(ControlError { code: ErrorCode::Limit, message: "too big".into() });
         assert_eq!(serde_json::to_string(&e).unwrap(), r#"{"reply":"error","code":"limit","message":"too big"}"#);
-        assert_eq!(frame_name(42), "lumen/session/42/frame");
     }
 }

@@ -1,18 +1,13 @@
 //! Control requests, the same on both transports: validate, size, register, describe, report.
 
 use crate::registry::{Entry, Registry};
-use lumen_proto::session::{contacts_name, frame_name, client_alive_name, ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
+use crate::error::DaemonError;
+use lumen_transport::names::{client_alive_name, contacts_name, frame_name};
+use lumen_transport::shm::ChannelQos;
+use lumen_proto::session::{ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
 use lumen_proto::{SceneSpec, StateLayout};
 use std::sync::Arc;
-
-/// iceoryx2 buffers per session (see `local`): frames are kept one deep per subscriber (newest
-/// wins), replies four deep.
-pub const FRAME_BUFFER: usize = 1;
-/// Frames one subscriber may hold at once: the newest, and the next while draining to it.
-pub const FRAME_BORROWED: usize = 2;
-pub const CONTACTS_BUFFER: usize = 4;
-pub const CONTACTS_BORROWED: usize = 2;
 
 /// A session accepted by [`open`], to be started by its transport.
 pub struct Plan {
@@ -38,9 +33,8 @@ pub fn contact_bound(spec: &SceneSpec) -> usize {
 /// Bytes of shared memory an iceoryx2 session pins: the client's frame segment and the
 /// daemon's contacts segment, each sized for every subscriber's buffers plus one loan.
 pub fn session_bytes(floats: usize, max_contacts: usize, observers: usize) -> usize {
-    let subs = 1 + observers;
-    let frames = subs * (FRAME_BUFFER + FRAME_BORROWED) + 1;
-    let replies = subs * (CONTACTS_BUFFER + CONTACTS_BORROWED) + 1;
+    let frames = ChannelQos::frames(observers).segment_samples();
+    let replies = ChannelQos::contacts(observers).segment_samples();
     frames * (FRAME_HEADER_BYTES + 4 * floats) + replies * (CONTACTS_HEADER_BYTES + CONTACT_BYTES * max_contacts)
 }
 
@@ -55,7 +49,7 @@ pub fn decode(bytes: &[u8]) -> Result<ControlRequest, ControlReply> {
 
 /// Handles a request on `transport`; `start` launches an accepted session and says whether it
 /// could (its channels exist when it returns `Ok`).
-pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest, start: impl FnOnce(Plan) -> Result<(), String>) -> ControlReply {
+pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
     match request {
         ControlRequest::Status => ControlReply::Status(registry.status()),
         ControlRequest::Describe { session } => match registry.get(session) {
@@ -73,7 +67,7 @@ pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest
     }
 }
 
-fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec, client: String, echo: bool, start: impl FnOnce(Plan) -> Result<(), String>) -> ControlReply {
+fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec, client: String, echo: bool, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }
@@ -163,7 +157,7 @@ mod tests {
         assert_eq!(e.code, ErrorCode::Spec);
         assert!(e.message.contains("\"colon\""), "{}", e.message);
         // A failing transport leaves nothing registered.
-        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Err("no shm".into())) else { panic!() };
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Err(DaemonError::Stopped("no shm".into()))) else { panic!() };
         assert_eq!((e.code, reg.len()), (ErrorCode::Internal, 0));
         assert!(matches!(decode(b"{\"op\":\"explode\"}"), Err(ControlReply::Error(ControlError { code: ErrorCode::BadRequest, .. }))));
     }

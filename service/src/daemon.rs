@@ -1,22 +1,13 @@
 //! The daemon: both transports over one session registry, stopped by SIGINT or SIGTERM.
 
 use crate::config::ServeConfig;
+use crate::error::DaemonError;
 use crate::local::Local;
 use crate::registry::Registry;
 use crate::remote::Remote;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-/// Why the daemon could not run.
-#[derive(Debug, thiserror::Error)]
-pub enum DaemonError {
-    #[error(transparent)]
-    Config(#[from] crate::config::ConfigError),
-    #[error("iceoryx2: {0}")]
-    Iceoryx2(String),
-    #[error("{0}")]
-    Zenoh(String),
-}
 
 /// A configured daemon, not yet running.
 pub struct Daemon {
@@ -41,7 +32,7 @@ impl Daemon {
         let mut threads = Vec::new();
         if self.config.iceoryx2.enabled {
             let local = Local::new(self.config.iceoryx2.prefix.clone(), registry.clone());
-            threads.push(local.start().map_err(DaemonError::Iceoryx2)?);
+            threads.push(local.start()?);
         }
         if self.config.zenoh.enabled() {
             let z = &self.config.zenoh;
@@ -51,7 +42,7 @@ impl Daemon {
                 Err(e) => {
                     let running = Running { registry, threads };
                     running.stop();
-                    return Err(DaemonError::Zenoh(e));
+                    return Err(e);
                 }
             }
         }

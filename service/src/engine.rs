@@ -124,7 +124,7 @@ mod tests {
 
     fn engine() -> Engine {
         let reg = Registry::new(crate::config::Limits::default());
-        let spec = crate::bench::scene::spec();
+        let spec = lumen_scene::frames::spec();
         let req = ControlRequest::Open { version: 1, spec, client: "t".into(), echo: false };
         let mut entry = None;
         let r = crate::control::handle(&reg, Transport::Iceoryx2, req, |p| {
@@ -140,7 +140,7 @@ mod tests {
         let mut e = engine();
         let floats = e.layout.floats;
         let mut state = vec![0.0f32; floats];
-        crate::bench::scene::write_state(0, &mut state);
+        lumen_scene::frames::write_state(0, &mut state);
         let id = e.id;
         let h = |n| FrameHeader::new(id, n, 0, floats, 2);
         let (good, contacts) = e.run(Ok((h(0), &state)));

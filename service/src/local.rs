@@ -2,14 +2,16 @@
 //! and one thread per session that sleeps in a WaitSet until the client's frame event, reads the
 //! frame in place from shared memory, detects, and writes the reply into a loaned sample.
 
-use crate::control::{self, Plan, CONTACTS_BORROWED, CONTACTS_BUFFER, FRAME_BORROWED, FRAME_BUFFER};
+use crate::control::{self, Plan};
+use crate::error::DaemonError;
 use crate::engine::Engine;
 use crate::registry::Registry;
 use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
-use lumen_client::local::{config, node, service_name, ContactsService, EventService, FrameService, Svc, EVENT_PEER_DIED, EVENT_SENT};
-use lumen_client::Error as ClientError;
-use lumen_proto::session::{ControlReply, Transport, CONTROL};
+use lumen_proto::session::{ControlReply, Transport};
+use lumen_transport::names::CONTROL;
+use lumen_transport::shm::{config, create_channel, node, service_name, ChannelQos, ContactsService, EventService, FrameService, Svc, EVENT_PEER_DIED, EVENT_SENT};
+use lumen_transport::TransportError;
 use lumen_proto::wire::{ContactsHeader, FrameHeader};
 use lumen_proto::Contact;
 use std::sync::mpsc;
@@ -28,8 +30,8 @@ pub struct Local {
     registry: Arc<Registry>,
 }
 
-fn iox(what: &str, e: impl std::fmt::Debug) -> String {
-    format!("{what}: {e:?}")
+fn iox(what: &str, e: impl std::error::Error + Send + Sync + 'static) -> DaemonError {
+    TransportError::iceoryx2(what, e).into()
 }
 
 impl Local {
@@ -38,29 +40,29 @@ impl Local {
     }
 
     /// Starts the control thread; returns once it serves (or why it cannot).
-    pub fn start(self) -> Result<JoinHandle<()>, String> {
+    pub fn start(self) -> Result<JoinHandle<()>, DaemonError> {
         let (tx, rx) = mpsc::channel();
         let handle = std::thread::Builder::new()
             .name("iox2-control".into())
             .spawn(move || {
                 if let Err(e) = self.serve(&tx) {
-                    let _ = tx.send(Err(e.clone()));
                     tracing::error!("iceoryx2 control stopped: {e}");
+                    let _ = tx.send(Err(e));
                 }
             })
-            .map_err(|e| e.to_string())?;
-        rx.recv().map_err(|_| "the iceoryx2 control thread died".to_string())??;
+            .map_err(|source| DaemonError::Spawn { thread: "iceoryx2 control".into(), source })?;
+        rx.recv().map_err(|_| DaemonError::Stopped("iceoryx2 control".into()))??;
         Ok(handle)
     }
 
-    fn serve(self, ready: &mpsc::Sender<Result<(), String>>) -> Result<(), String> {
-        let cfg = config(self.prefix.as_deref()).map_err(|e| e.to_string())?;
-        let node = node(&cfg, "lumen-daemon").map_err(|e| e.to_string())?;
+    fn serve(self, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<(), DaemonError> {
+        let cfg = config(self.prefix.as_deref())?;
+        let node = node(&cfg, "lumen-daemon")?;
         let cleaned = node.try_cleanup_dead_nodes();
         if cleaned.cleanups > 0 {
             tracing::info!("removed the shared memory of {} dead processes", cleaned.cleanups);
         }
-        let name = service_name(CONTROL).map_err(|e| e.to_string())?;
+        let name = service_name(CONTROL)?;
         let service = node
             .service_builder(&name)
             .request_response::<[u8], [u8]>()
@@ -135,7 +137,7 @@ impl Local {
 }
 
 /// Starts a session's thread; the inner result says whether its channels were created.
-fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
+fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), DaemonError>), DaemonError> {
     let id = plan.entry.info.session;
     crate::registry::spawn_session("iox2-s", id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
 }
@@ -150,67 +152,22 @@ struct Channels {
     _events: (EventService, EventService, ContactsService),
 }
 
-/// A publish-subscribe service of `[T]` slices with header `H`, and its event service.
-type Channel<T, H> = (iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, EventService);
-
-/// Creates one of a session's two channels: a publish-subscribe service of `[T]` slices with
-/// header `H` (one publisher; the session's other side and every observer subscribe; the newest
-/// sample wins when a subscriber falls behind) and its event, which also tells when a peer dies.
-fn channel<T: std::fmt::Debug + IceoryxSend + ZeroCopySend, H: std::fmt::Debug + ZeroCopySend>(
-    node: &Node<Svc>,
-    name: &str,
-    what: &str,
-    subs: usize,
-    buffer: usize,
-    borrowed: usize,
-) -> Result<Channel<T, H>, ClientError> {
-    let e = |step: &str, err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("creating the {what} {step}: {err:?}"));
-    let name = service_name(name)?;
-    let data = node
-        .service_builder(&name)
-        .publish_subscribe::<[T]>()
-        .user_header::<H>()
-        .max_publishers(1)
-        .max_subscribers(subs)
-        .subscriber_max_buffer_size(buffer)
-        .subscriber_max_borrowed_samples(borrowed)
-        .history_size(0)
-        .enable_safe_overflow(true)
-        .max_nodes(subs + 1)
-        .create()
-        .map_err(|x| e("service", &x))?;
-    let events = node
-        .service_builder(&name)
-        .event()
-        .max_notifiers(1)
-        .max_listeners(subs)
-        .max_nodes(subs + 1)
-        .notifier_dead_event(EVENT_PEER_DIED)
-        .create()
-        .map_err(|x| e("event", &x))?;
-    Ok((data, events))
-}
-
 impl Channels {
-    fn create(node: &Node<Svc>, plan: &Plan, observers: usize) -> Result<Self, ClientError> {
+    fn create(node: &Node<Svc>, plan: &Plan, observers: usize) -> Result<Self, DaemonError> {
         let info = &plan.entry.info;
-        let subs = 1 + observers;
-        let e = |what: &str| {
-            let what = what.to_owned();
-            move |err: &dyn std::fmt::Debug| ClientError::Iceoryx2(format!("{what}: {err:?}"))
-        };
-        let (frames, frame_events) = channel::<f32, FrameHeader>(node, &info.frame, "frame", subs, FRAME_BUFFER, FRAME_BORROWED)?;
-        let (contacts, contact_events) = channel::<Contact, ContactsHeader>(node, &info.contacts, "contacts", subs, CONTACTS_BUFFER, CONTACTS_BORROWED)?;
-        let subscriber = frames.subscriber_builder().buffer_size(FRAME_BUFFER).create().map_err(|x| e("subscribing to frames")(&x))?;
-        let listener = frame_events.listener_builder().create().map_err(|x| e("listening for frames")(&x))?;
+        let (frame_qos, contacts_qos) = (ChannelQos::frames(observers), ChannelQos::contacts(observers));
+        let (frames, frame_events) = create_channel::<f32, FrameHeader>(node, &info.frame, "frame", frame_qos)?;
+        let (contacts, contact_events) = create_channel::<Contact, ContactsHeader>(node, &info.contacts, "contacts", contacts_qos)?;
+        let subscriber = frames.subscriber_builder().buffer_size(frame_qos.buffer).create().map_err(|x| iox("subscribing to frames", x))?;
+        let listener = frame_events.listener_builder().create().map_err(|x| iox("listening for frames", x))?;
         let publisher = contacts
             .publisher_builder()
             .initial_max_slice_len(info.max_contacts as usize)
             .allocation_strategy(AllocationStrategy::Static)
             .max_loaned_samples(1)
             .create()
-            .map_err(|x| e("creating the contacts publisher")(&x))?;
-        let notifier = contact_events.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|x| e("creating the contacts notifier")(&x))?;
+            .map_err(|x| iox("creating the contacts publisher", x))?;
+        let notifier = contact_events.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|x| iox("creating the contacts notifier", x))?;
         Ok(Self { frames, subscriber, listener, publisher, notifier, _events: (frame_events, contact_events, contacts) })
     }
 
@@ -297,11 +254,11 @@ enum ClientState {
     Dead,
 }
 
-fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
+fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> {
     let id = plan.entry.info.session;
-    let node = node(cfg, &format!("lumen-session-{id}")).map_err(|e| e.to_string())?;
-    let channels = Channels::create(&node, &plan, registry.limits.max_observers).map_err(|e| e.to_string())?;
-    let mut engine = Engine::new(plan.entry.clone(), plan.echo).map_err(|e| e.to_string())?;
+    let node = node(cfg, &format!("lumen-session-{id}"))?;
+    let channels = Channels::create(&node, &plan, registry.limits.max_observers)?;
+    let mut engine = Engine::new(plan.entry.clone(), plan.echo)?;
     let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;
     let on_frame = waitset.attach_notification(&channels.listener).map_err(|e| iox("attaching", e))?;
     let on_tick = waitset.attach_interval(TICK).map_err(|e| iox("attaching", e))?;

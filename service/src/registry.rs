@@ -1,6 +1,7 @@
 //! The daemon's sessions, shared by both transports and `lumen status`.
 
 use crate::config::Limits;
+use crate::error::DaemonError;
 use crate::stats::Stats;
 use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
 use std::collections::BTreeMap;
@@ -139,9 +140,9 @@ pub fn thread_name(kind: &str, id: u64) -> String {
 /// on which it reports whether its channels were created, and returns why the session ended.
 /// The session leaves the registry whatever happens. Returns the thread and that first report
 /// (an error if the thread did not report within 10 s).
-pub fn spawn_session<F>(kind: &str, id: u64, registry: Arc<Registry>, run: F) -> Result<(std::thread::JoinHandle<()>, Result<(), String>), String>
+pub fn spawn_session<F>(kind: &str, id: u64, registry: Arc<Registry>, run: F) -> Result<(std::thread::JoinHandle<()>, Result<(), DaemonError>), DaemonError>
 where
-    F: FnOnce(&Registry, &std::sync::mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> + Send + 'static,
+    F: FnOnce(&Registry, &std::sync::mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> + Send + 'static,
 {
     let (tx, rx) = std::sync::mpsc::channel();
     let handle = std::thread::Builder::new()
@@ -152,13 +153,13 @@ where
             match result {
                 Ok(why) => tracing::info!("session {id} ended: {why}"),
                 Err(e) => {
-                    let _ = tx.send(Err(e.clone()));
                     tracing::warn!("session {id} failed: {e}");
+                    let _ = tx.send(Err(e));
                 }
             }
         })
-        .map_err(|e| e.to_string())?;
-    let r = rx.recv_timeout(std::time::Duration::from_secs(10)).unwrap_or_else(|_| Err("the session thread did not start in time".into()));
+        .map_err(|source| DaemonError::Spawn { thread: format!("session {id}"), source })?;
+    let r = rx.recv_timeout(std::time::Duration::from_secs(10)).unwrap_or_else(|_| Err(DaemonError::Stopped(format!("session {id}"))));
     Ok((handle, r))
 }
 

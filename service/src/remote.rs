@@ -5,8 +5,11 @@
 use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::registry::Registry;
-use lumen_client::remote::config;
-use lumen_proto::session::{ControlReply, Transport, CONTROL, DAEMON_ALIVE};
+use crate::error::DaemonError;
+use lumen_proto::session::{ControlReply, Transport};
+use lumen_transport::names::{CONTROL, DAEMON_ALIVE};
+use lumen_transport::net::{config, set, CONGESTION, FRAME_QUEUE};
+use lumen_transport::TransportError;
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
 use std::sync::mpsc;
@@ -14,7 +17,6 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
 use zenoh::handlers::RingChannel;
-use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
@@ -31,21 +33,21 @@ pub struct Remote {
 
 impl Remote {
     /// Opens the zenoh session and starts the control thread; returns once it serves.
-    pub fn start(self) -> Result<JoinHandle<()>, String> {
-        let mut cfg = config(&self.mode, &self.listen, &self.connect).map_err(|e| e.to_string())?;
+    pub fn start(self) -> Result<JoinHandle<()>, DaemonError> {
+        let mut cfg = config(&self.mode, &self.listen, &self.connect)?;
         // Bounded memory: zenoh reassembles a fragmented message before we see it, so cap that
         // at the largest frame a valid spec can have (instead of zenoh's default 1 GiB).
         let cap = 4 * lumen_proto::limits::MAX_STATE_FLOATS + FRAME_HEADER_BYTES + 1024;
-        cfg.insert_json5("transport/link/rx/max_message_size", &cap.to_string()).map_err(|e| format!("zenoh config: {e}"))?;
+        set(&mut cfg, "transport/link/rx/max_message_size", &cap.to_string())?;
         if let Some(tls) = &self.tls {
             for (key, path) in [("listen_certificate", &tls.certificate), ("listen_private_key", &tls.private_key)] {
                 let value = serde_json::to_string(&path.display().to_string()).expect("a string");
-                cfg.insert_json5(&format!("transport/link/tls/{key}"), &value).map_err(|e| format!("zenoh config: {e}"))?;
+                set(&mut cfg, &format!("transport/link/tls/{key}"), &value)?;
             }
         }
-        let z = zenoh::open(cfg).wait().map_err(|e| format!("zenoh: cannot open a session listening on {:?}: {e}", self.listen))?;
-        let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| format!("zenoh liveliness: {e}"))?;
-        let queryable = z.declare_queryable(CONTROL).wait().map_err(|e| format!("zenoh queryable {CONTROL}: {e}"))?;
+        let z = zenoh::open(cfg).wait().map_err(|e| TransportError::zenoh(format!("opening a session listening on {:?}", self.listen), e))?;
+        let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| TransportError::zenoh("declaring the daemon's liveliness token", e))?;
+        let queryable = z.declare_queryable(CONTROL).wait().map_err(|e| TransportError::zenoh(format!("declaring the queryable {CONTROL}"), e))?;
         std::thread::Builder::new()
             .name("zenoh-control".into())
             .spawn(move || {
@@ -88,27 +90,27 @@ impl Remote {
                     tracing::warn!("closing zenoh: {e}");
                 }
             })
-            .map_err(|e| e.to_string())
+            .map_err(|source| DaemonError::Spawn { thread: "zenoh control".into(), source })
     }
 }
 
 /// Starts a session's thread; the inner result says whether its channels were created.
-fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), String>), String> {
+fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), DaemonError>), DaemonError> {
     let id = plan.entry.info.session;
     crate::registry::spawn_session("zenoh-s", id, registry, move |registry, tx| run_session(&z, plan, registry, tx))
 }
 
-fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), String>>) -> Result<&'static str, String> {
+fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> {
     let info = plan.entry.info.clone();
-    let frames = z.declare_subscriber(info.frame.clone()).with(RingChannel::new(1)).wait().map_err(|e| format!("subscribing to {}: {e}", info.frame))?;
+    let frames = z.declare_subscriber(info.frame.clone()).with(RingChannel::new(FRAME_QUEUE)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
     let publisher = z
         .declare_publisher(info.contacts.clone())
-        .congestion_control(CongestionControl::Block)
+        .congestion_control(CONGESTION)
         .express(true)
         .wait()
-        .map_err(|e| format!("publishing on {}: {e}", info.contacts))?;
-    let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| format!("watching {}: {e}", info.alive))?;
-    let mut engine = Engine::new(plan.entry.clone(), plan.echo).map_err(|e| e.to_string())?;
+        .map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
+    let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
+    let mut engine = Engine::new(plan.entry.clone(), plan.echo)?;
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout.floats);
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
     let _ = ready.send(Ok(()));
@@ -132,7 +134,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
                 engine.record(&reply, service);
             }
             Ok(None) => {}
-            Err(e) => return Err(format!("frame subscriber: {e}")),
+            Err(e) => return Err(TransportError::zenoh("receiving a frame", e).into()),
         }
         if last_tick.elapsed() >= TICK {
             last_tick = Instant::now();

@@ -33,7 +33,7 @@ pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// What went wrong between the simulation and the daemon.
 #[derive(Debug)]
-pub enum DaemonError {
+pub enum DaemonSourceError {
     /// The client failed (no daemon, timeout, daemon gone, transport error).
     Client(lumen_client::Error),
     /// The daemon answered the frame with an error status.
@@ -43,28 +43,28 @@ pub enum DaemonError {
     Truncated { frame: u64, sent: u32 },
 }
 
-impl fmt::Display for DaemonError {
+impl fmt::Display for DaemonSourceError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            DaemonError::Client(e) => write!(f, "{e}"),
-            DaemonError::Refused { frame, status, message } => write!(f, "the daemon refused frame {frame}: {status:?}: {message}"),
-            DaemonError::Truncated { frame, sent } => write!(f, "the daemon truncated the contacts of frame {frame} at the session's capacity ({sent})"),
+            DaemonSourceError::Client(e) => write!(f, "{e}"),
+            DaemonSourceError::Refused { frame, status, message } => write!(f, "the daemon refused frame {frame}: {status:?}: {message}"),
+            DaemonSourceError::Truncated { frame, sent } => write!(f, "the daemon truncated the contacts of frame {frame} at the session's capacity ({sent})"),
         }
     }
 }
 
-impl std::error::Error for DaemonError {
+impl std::error::Error for DaemonSourceError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
-            DaemonError::Client(e) => Some(e),
+            DaemonSourceError::Client(e) => Some(e),
             _ => None,
         }
     }
 }
 
-impl From<lumen_client::Error> for DaemonError {
+impl From<lumen_client::Error> for DaemonSourceError {
     fn from(e: lumen_client::Error) -> Self {
-        DaemonError::Client(e)
+        DaemonSourceError::Client(e)
     }
 }
 
@@ -105,7 +105,7 @@ impl DaemonSource {
         self.detect_us
     }
 
-    fn exchange(&mut self, out: &mut Vec<Contact>) -> Result<(), DaemonError> {
+    fn exchange(&mut self, out: &mut Vec<Contact>) -> Result<(), DaemonSourceError> {
         let t0 = Instant::now();
         let n = self.session.submit()?;
         let deadline = t0 + self.timeout;
@@ -118,10 +118,10 @@ impl DaemonSource {
             }
             let rtt = t0.elapsed();
             if let Err((status, message)) = reply.result() {
-                return Err(DaemonError::Refused { frame: reply.frame(), status, message: message.to_owned() });
+                return Err(DaemonSourceError::Refused { frame: reply.frame(), status, message: message.to_owned() });
             }
             if reply.header().flags & FLAG_TRUNCATED != 0 {
-                return Err(DaemonError::Truncated { frame: reply.frame(), sent: reply.header().count });
+                return Err(DaemonSourceError::Truncated { frame: reply.frame(), sent: reply.header().count });
             }
             self.detect_us = reply.detect_us();
             out.clear();
@@ -134,7 +134,7 @@ impl DaemonSource {
 
 impl ContactSource for DaemonSource {
     fn frame(&mut self) -> Result<(&mut [f32], bool), SourceError> {
-        Ok((self.session.frame().map_err(DaemonError::from)?, false))
+        Ok((self.session.frame().map_err(DaemonSourceError::from)?, false))
     }
 
     fn detect(&mut self, out: &mut Vec<Contact>) -> Result<(), SourceError> {

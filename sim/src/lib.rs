@@ -23,6 +23,7 @@
 //!   contact's normal; corners held by carrying a sample's previous contact; inelastic).
 //! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
 //!   [`ContactSource`] seam where the daemon plugs in.
+//! - [`config`]: [`SimParams`] and [`SimConfig`], what a run is made of besides the colon.
 //! - [`setup`]: the colons, the scope's starting pose, the scene spec.
 //! - [`daemon`]: contacts from the Lumen daemon ([`daemon::DaemonSource`], what `lumen sim`
 //!   runs on).
@@ -44,6 +45,7 @@
 //! }
 //! ```
 
+pub mod config;
 pub mod contact;
 pub mod daemon;
 pub mod operator;
@@ -56,4 +58,5 @@ pub use lumen_proto::Contact;
 pub use operator::{Action, Operator, Phase, Script};
 pub use rod::{Rod, RodParams, V3};
 pub use wall::{Wall, WallParams};
-pub use world::{ContactSource, FnSource, FrameReport, InProcess, SimConfig, SimError, SimParams, SourceError, World};
+pub use config::{SimConfig, SimParams};
+pub use world::{ContactSource, FnSource, FrameReport, InProcess, SimError, SourceError, World};

@@ -4,7 +4,7 @@
 //!
 //! - [`generated_colon`]: `lumen_scene`'s seeded colon (default 1.5 m, 1.2 mm rings, 32 spokes).
 //! - [`gca_colon`]: the real colon (Edinburgh Gut Cell Atlas EdinGCA_3D_00090, CC BY 4.0,
-//!   doi:10.1186/s12911-023-02111-9, see [`lumen_scene::gca_attribution`]) imported with 32
+//!   doi:10.1186/s12911-023-02111-9, see [`lumen_scene::gca::attribution`]) imported with 32
 //!   spokes every 1 mm and inflated twice (the scan is not insufflated).
 //! - [`insertion_pose`]: the scope laid through the lumen with its tip at a given depth, the way
 //!   [`lumen_scene::endoscope::Insertion`] lays it (riding the outer wall of bends), but not
@@ -13,13 +13,14 @@
 //!   sigmoid's stretch of the colon.
 
 use crate::rod::{RodParams, V3};
-use crate::world::SimParams;
+use crate::config::SimParams;
 use lumen_detect::Tube;
 use lumen_proto::{BodySpec, ContactKind, PairSpec, SceneSpec, Shape};
 use lumen_scene::colon::{generate, ColonParams};
 use lumen_scene::endoscope::Insertion;
-use lumen_scene::import::{build_tube, gca_paths, load_centerline_csv, load_mesh, ImportParams};
-use lumen_scene::probe::Lumen;
+use lumen_import::probe::Lumen;
+use lumen_scene::gca::{self, GcaError};
+use lumen_scene::ColonKind;
 use std::path::Path;
 
 /// Name of the colon body in the scene spec (body 0).
@@ -34,21 +35,12 @@ pub fn generated_colon(seed: u64, length_mm: f32) -> Tube {
 
 /// The GCA colon from `dir` (default: `../shared/data/colon-gca00090` beside the workspace),
 /// 32 spokes every 1 mm, inflated twice; the error says what is missing.
-pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, String> {
-    gca_colon_inflated(dir, GCA_INFLATE)
+pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, GcaError> {
+    gca::load(dir, GCA_INFLATE)
 }
 
-/// The GCA colon's default inflation (the scan is not insufflated): [`ImportParams::gca`]'s.
-pub use lumen_scene::import::GCA_INFLATE;
-
-/// [`gca_colon`] with another inflation factor.
-pub fn gca_colon_inflated(dir: Option<&Path>, inflate: f32) -> Result<Tube, String> {
-    let (mesh, line) = gca_paths(dir)?;
-    let mesh = load_mesh(&mesh).map_err(|e| e.to_string())?;
-    let line = load_centerline_csv(&line).map_err(|e| e.to_string())?;
-    let params = ImportParams { inflate, ..ImportParams::gca() };
-    build_tube(&mesh, &line, &params).map(|(t, _)| t).map_err(|e| e.to_string())
-}
+/// The GCA colon's default inflation (the scan is not insufflated): `ImportParams::gca`'s.
+pub use lumen_import::GCA_INFLATE;
 
 /// The scope's control points (tip first) with its tip `tip_depth_mm` along the colon's
 /// midline: through the lumen, on the outer side of bends but not into the wall, and straight
@@ -112,7 +104,7 @@ pub fn sigmoid_bend_mm(tube: &Tube) -> f64 {
 }
 
 /// For each ring, whether the midline's bend radius there (the circumradius of the midline
-/// points one longest-spoke length before and after it, as [`lumen_scene::probe::clearance`]
+/// points one longest-spoke length before and after it, as [`lumen_import::probe::clearance`]
 /// measures) is at least the ring's longest spoke: where it is not, the ring planes of the
 /// bend cross inside the lumen and tube coordinates are ambiguous.
 pub fn valid_bends(tube: &Tube) -> Vec<bool> {
@@ -127,8 +119,8 @@ pub fn valid_bends(tube: &Tube) -> Vec<bool> {
             if a < 0.0 || b > arc[n - 1] {
                 return true;
             }
-            let pa = lumen_scene::geom::at_arc(&pts, &arc, a);
-            let pb = lumen_scene::geom::at_arc(&pts, &arc, b);
+            let pa = lumen_import::geom::at_arc(&pts, &arc, a);
+            let pb = lumen_import::geom::at_arc(&pts, &arc, b);
             let pc = pts[i];
             let (x, y, z) = ((pa - pc).norm(), (pb - pc).norm(), (pa - pb).norm());
             let area2 = (pa - pc).cross(&(pb - pc)).norm();
@@ -158,20 +150,11 @@ pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
     spec
 }
 
-/// The colons a run can use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Colon {
-    /// [`generated_colon`] (1.5 m) of a seed.
-    Generated { seed: u64 },
-    /// [`gca_colon`], from a directory or its default place.
-    Gca,
-}
-
-/// Builds `colon` (`data`: the GCA files' directory, for [`Colon::Gca`]); the error says what
-/// is missing.
-pub fn colon(colon: Colon, data: Option<&Path>) -> Result<Tube, String> {
-    match colon {
-        Colon::Generated { seed } => Ok(generated_colon(seed, 1500.0)),
-        Colon::Gca => gca_colon(data),
+/// The colon of `kind`: the generated one of `seed` (1.5 m), or the GCA colon from `data` (its
+/// files' folder, or the default place); the error says what is missing.
+pub fn colon(kind: ColonKind, seed: u64, data: Option<&Path>) -> Result<Tube, GcaError> {
+    match kind {
+        ColonKind::Generated => Ok(generated_colon(seed, 1500.0)),
+        ColonKind::Gca => gca_colon(data),
     }
 }

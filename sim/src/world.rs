@@ -44,10 +44,11 @@
 //! submitting it and copying the reply's contacts.
 
 use crate::contact::ContactSet;
-use crate::operator::{Drive, Operator, Script};
-use crate::rod::{Rod, RodParams, V3};
+use crate::operator::{Drive, Operator};
+use crate::rod::{Rod, V3};
+use crate::config::SimConfig;
 use crate::setup;
-use crate::wall::{Wall, WallParams};
+use crate::wall::Wall;
 use lumen_detect::{Detector, Tube};
 use lumen_proto::contact::FLAG_OUTSIDE;
 use lumen_proto::{Contact, ContactKind, SceneSpec, SpecError, StateLayout};
@@ -133,101 +134,6 @@ impl<F: FnMut(&[f32], &mut Vec<Contact>) -> Result<(), SourceError>> ContactSour
 
     fn detect(&mut self, out: &mut Vec<Contact>) -> Result<(), SourceError> {
         (self.f)(&self.state, out)
-    }
-}
-
-/// Numerical and scene parameters of the simulation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimParams {
-    /// Frame length, s (default 0.001).
-    pub dt_s: f64,
-    /// XPBD substeps per frame (default 16).
-    pub substeps: u32,
-    /// Gravity, mm/s^2 (default 9810 towards -y: the patient supine, `y` anterior).
-    pub gravity_mm_s2: [f64; 3],
-    /// Samples per rod segment for detection (default 4).
-    pub precision: u32,
-    /// Contacts are reported while the surfaces are closer than this, mm (default 2): the
-    /// frame's constraints then include surfaces about to touch.
-    pub margin_mm: f32,
-    /// Whether the scope's contacts with itself are detected and answered (default true).
-    pub self_contact: bool,
-    /// Stiffness of the operator's hand, N/m (default 5000).
-    pub hand_stiffness_n_per_m: f64,
-    /// Stiffness holding the tip in the hard push, N/m (default 100000: a tip caught at the
-    /// bend gives 0.4 mm under the full 40 N).
-    pub hold_stiffness_n_per_m: f64,
-    /// Control points of the distal bending section (default 10: about 10 cm).
-    pub bending_section_points: usize,
-    /// Contact projections per substep (default 2).
-    pub contact_passes: u32,
-    /// Stretch projections per substep, alternating sweep directions (default 2: a second
-    /// sweep from the other end carries the hand's push along the whole scope).
-    pub stretch_passes: u32,
-    /// Axial re-projections of every section reading (the spec's `refine`; default 0), in
-    /// process or through the daemon alike. 1 sees folds and bulge flanks ahead of a sample
-    /// sooner, for more detection time.
-    pub refine: u32,
-    /// Contacts at the nearest point of the continuous wall (the spec's `nearest`; default
-    /// true). The sections' own readings (off) measure a sample against its section's tangent
-    /// plane, which on a steep fold passes millimetres from any wall point: measured on the
-    /// GCA colon (`lumen-sim-run --scene gca --inflate F`, F = 1.7 to 2.3 by 0.1), the deepest
-    /// penetration was 3.3 to 5.2 mm off (samples escaped at 1.7) and 0.65 to 0.88 mm on,
-    /// with no escape (0.9 to 1.3 mm while each sample had only its nearest wall as a
-    /// contact; the other walls within the margin are `FLAG_OTHER_WALL` contacts). On that run the detection's time per frame did not measurably change (at
-    /// 2.0, four alternated runs: 177-218 us on, 172-220 us off, before the other walls,
-    /// which took it from 176 to 195 us); on the benchmark's kinematic frames, with more
-    /// samples near the wall, it is about three times the sections'.
-    pub nearest: bool,
-    /// Speed limit of scope points and wall nodes, mm/s (default 1000; 0: none). A
-    /// colonoscope's motions stay far below it; it keeps a frame's motion within about the
-    /// detection margin, so conflicting contacts (where the tube model is ambiguous) cannot
-    /// pump energy into the scope. Points it slows are counted in
-    /// [`FrameReport::speed_limited`].
-    pub max_speed_mm_s: f64,
-    /// Time over which the scope's initial shape is released, s (default 0.15): its rest
-    /// curvature starts as the shape it was laid in (no elastic force) and falls linearly to
-    /// straight, so the scope loads the wall gradually instead of springing at it.
-    pub relax_s: f64,
-}
-
-impl Default for SimParams {
-    fn default() -> Self {
-        Self {
-            dt_s: 1e-3,
-            substeps: 16,
-            gravity_mm_s2: [0.0, -9810.0, 0.0],
-            precision: 4,
-            margin_mm: 2.0,
-            self_contact: true,
-            hand_stiffness_n_per_m: 5000.0,
-            hold_stiffness_n_per_m: 100_000.0,
-            bending_section_points: 10,
-            contact_passes: 2,
-            stretch_passes: 2,
-            refine: 0,
-            nearest: true,
-            relax_s: 0.15,
-            max_speed_mm_s: 1000.0,
-        }
-    }
-}
-
-/// Everything a simulation is made of, besides the colon.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimConfig {
-    pub rod: RodParams,
-    pub wall: WallParams,
-    pub sim: SimParams,
-    pub script: Script,
-    /// Depth of the scope's tip along the midline at the start, mm (default: 20 mm before the
-    /// sigmoid's sharpest bend, [`setup::sigmoid_bend_mm`], so the insertion brings it there).
-    pub start_depth_mm: Option<f64>,
-}
-
-impl Default for SimConfig {
-    fn default() -> Self {
-        Self { rod: RodParams::default(), wall: WallParams::default(), sim: SimParams::default(), script: Script::colonoscopy(), start_depth_mm: None }
     }
 }
 

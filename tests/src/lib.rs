@@ -1,5 +1,6 @@
 //! Helpers for Lumen's multi-process end-to-end tests (the tests themselves live in
-//! `service/tests/`, where Cargo hands them the `lumen` binary; see `tests/README.md`).
+//! `tests/e2e/`, registered as tests of `lumen-cli` so Cargo hands them the `lumen` binary; see
+//! `tests/README.md`).
 //!
 //! - [`Daemon`]: a `lumen serve` child, killed when dropped.
 //! - [`ChildProcess`]: any child (e.g. the test binary re-run as a client), killed when dropped.

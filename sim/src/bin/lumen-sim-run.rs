@@ -1,21 +1,14 @@
 //! Runs the scripted colonoscopy with in-process detection and prints its figures: the
 //! physics developer's variant of `lumen sim` (which runs the same [`World`] against the daemon,
-//! see `service/src/cli/sim.rs`), with the tuning and tracing flags below.
+//! see `cli/src/commands/sim.rs`), with the tuning and tracing flags below.
 //!
 //! `cargo run --release -p lumen-sim --bin lumen-sim-run -- --help` lists the flags.
 
 use clap::{Parser, ValueEnum};
+use lumen_scene::ColonKind;
 use lumen_sim::{setup, SimConfig, World};
 use std::path::PathBuf;
 use std::time::Instant;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum SceneKind {
-    /// The seeded generated colon.
-    Generated,
-    /// The GCA colon (needs its files, see --data).
-    Gca,
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum ScriptKind {
@@ -32,8 +25,9 @@ struct Args {
     /// Frames to run (1 ms each).
     #[arg(long, default_value_t = 3000)]
     frames: u64,
-    #[arg(long, value_enum, default_value = "generated")]
-    scene: SceneKind,
+    /// The colon: generated (seeded) or gca (needs its files, see --data).
+    #[arg(long, default_value = "generated")]
+    scene: ColonKind,
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
     #[arg(long)]
     data: Option<PathBuf>,
@@ -117,20 +111,17 @@ fn main() {
     if let Some(v) = a.wall_node { wall.node_spacing_mm = v }
     if let Some(v) = a.wall_membrane { wall.membrane_ratio = v }
     if let Some(v) = a.wall_stiffness { wall.stiffness_kpa_per_mm = v }
-    let scene = match a.scene {
-        SceneKind::Generated => "generated",
-        SceneKind::Gca => "gca",
-    };
+    let scene = a.scene.name();
     let t0 = Instant::now();
     let colon = match a.scene {
-        SceneKind::Generated => setup::generated_colon(a.seed, a.length),
-        SceneKind::Gca => setup::gca_colon_inflated(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
+        ColonKind::Generated => setup::generated_colon(a.seed, a.length),
+        ColonKind::Gca => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
             eprintln!("{e}");
             std::process::exit(2)
         }),
     };
-    if scene == "gca" {
-        println!("data: {}", lumen_scene::gca_attribution());
+    if a.scene == ColonKind::Gca {
+        println!("data: {}", lumen_scene::gca::attribution());
     }
     let bend = setup::sigmoid_bend_mm(&colon);
     println!("{scene} colon: {} rings x {} spokes, built in {:.2?}; hard push at the bend {bend:.0} mm from the anus", colon.rings(), colon.spokes, t0.elapsed());

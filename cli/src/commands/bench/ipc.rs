@@ -1,0 +1,44 @@
+//! `lumen bench ipc [--quick] [--out DIR]`.
+
+use crate::ipc::ipc::{IpcBench, IpcReport};
+use crate::commands::CliResult;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct IpcArgs {
+    /// Fewer frames: finishes in well under a minute.
+    #[arg(long)]
+    pub quick: bool,
+    /// Where to write ipc.json and ipc.md.
+    #[arg(long, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Only this transport (iceoryx2 or zenoh).
+    #[arg(long)]
+    pub only: Option<String>,
+    /// Use the analytic colon-sized stand-in instead of lumen-scene's generated colonoscopy.
+    #[arg(long)]
+    pub stand_in: bool,
+    /// Frames per measurement (default 1,500 with --quick, else 10,000; at least 10).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(10..))]
+    pub frames: Option<u32>,
+    /// Back to back, the client works this many microseconds (busy) between a reply and its
+    /// next frame, as a physics step would (default 0: it submits at once).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=100_000))]
+    pub think_us: u64,
+}
+
+pub fn run(args: IpcArgs) -> CliResult {
+    let mut bench = IpcBench::new(args.quick, args.only.as_deref())?;
+    bench.stand_in = args.stand_in;
+    bench.frames = args.frames.map(|n| n as usize);
+    bench.think = std::time::Duration::from_micros(args.think_us);
+    let report: IpcReport = bench.run()?;
+    std::fs::create_dir_all(&args.out)?;
+    std::fs::write(args.out.join("ipc.json"), serde_json::to_string_pretty(&report)?)?;
+    let md = report.markdown();
+    std::fs::write(args.out.join("ipc.md"), &md)?;
+    print!("{md}");
+    eprintln!("wrote {} and {}", args.out.join("ipc.json").display(), args.out.join("ipc.md").display());
+    Ok(())
+}

@@ -1,0 +1,127 @@
+//! `lumen record SESSION -o run.mcap`: an observer writing a session's frames and replies to an
+//! MCAP file (see [`crate::recording`]) until the session ends or SIGINT / SIGTERM arrives; the
+//! file is finished either way.
+
+use super::transport::TransportArgs;
+use super::CliResult;
+use lumen_service::daemon::{block_termination_signals, wait_signal};
+use crate::recording::{wall_ns, Missed, Writer};
+use clap::Args;
+use lumen_client::{Error, Observed};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Args)]
+pub struct RecordArgs {
+    /// The session to record (its id, as `lumen status` lists it).
+    pub session: u64,
+    /// The MCAP file to write (replaced if it exists).
+    #[arg(long, short, value_name = "FILE")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// How often the loop looks for SIGINT / SIGTERM while frames keep coming.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+pub fn run(args: RecordArgs) -> CliResult {
+    // Before any client thread exists, so that every thread inherits the blocked set.
+    block_termination_signals();
+    let client = args.transport.client("lumen record")?;
+    let mut observer = client.observe(args.session)?;
+    let info = observer.info().clone();
+    let mut writer = Writer::create(&args.output, &info.spec, info.session, &info.transport.to_string())?;
+    // One line on stdout once observing: scripts and tests wait for it.
+    println!("lumen record: recording session {} to {}", info.session, args.output.display());
+    let _ = std::io::stdout().flush();
+    let mut gaps = Gaps::default();
+    let mut last_signal_look = Instant::now();
+    let outcome: Result<String, Error> = loop {
+        if last_signal_look.elapsed() >= SIGNAL_POLL {
+            last_signal_look = Instant::now();
+            if let Some(sig) = wait_signal(Duration::ZERO) {
+                break Ok(format!("signal {sig}"));
+            }
+        }
+        match observer.next(SIGNAL_POLL) {
+            Ok(Observed::Frame { header, state }) => {
+                gaps.frame(header.frame);
+                writer.frame(header, state, wall_ns())?;
+            }
+            Ok(Observed::Contacts(reply)) => {
+                gaps.reply(reply.frame(), reply.header().skipped);
+                writer.contacts(reply.header(), reply.contacts(), wall_ns())?;
+            }
+            Err(Error::Timeout(_)) => {}
+            Err(Error::SessionEnded(_)) => break Ok("session ended".into()),
+            Err(e) => break Err(e),
+        }
+    };
+    // Finish the file before reporting any observer error: what was recorded stays readable.
+    let written = writer.finish(gaps.missed)?;
+    let why = outcome?;
+    println!(
+        "lumen record: {why}; {} frames, {} replies, {} contacts, missed {} frames and {} replies, {} bytes in {}",
+        written.frames,
+        written.replies,
+        written.contacts,
+        gaps.missed.frames,
+        gaps.missed.replies,
+        written.bytes,
+        args.output.display()
+    );
+    if gaps.missed != Missed::default() {
+        eprintln!(
+            "lumen record: the recorder fell behind and missed {} frames and {} replies; drive the session more slowly (wait for each reply) for a complete recording",
+            gaps.missed.frames, gaps.missed.replies
+        );
+    }
+    Ok(())
+}
+
+/// Frame numbers the observer jumped over: it sees the newest frame only, so a recorder that
+/// falls behind loses frames; they are counted, never silently dropped.
+#[derive(Debug, Default)]
+struct Gaps {
+    last_frame: Option<u64>,
+    last_reply: Option<u64>,
+    missed: Missed,
+}
+
+impl Gaps {
+    fn frame(&mut self, n: u64) {
+        if let Some(last) = self.last_frame {
+            // A lower number means the client restarted its count (a reopened session): not a loss.
+            self.missed.frames += n.saturating_sub(last + 1);
+        }
+        self.last_frame = Some(n);
+    }
+
+    /// `skipped`: frames the daemon itself did not answer (newest wins), not the recorder's loss.
+    fn reply(&mut self, n: u64, skipped: u32) {
+        if let Some(last) = self.last_reply {
+            self.missed.replies += n.saturating_sub(last + 1).saturating_sub(skipped as u64);
+        }
+        self.last_reply = Some(n);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gaps_count_jumps_but_not_daemon_skips_or_restarts() {
+        let mut g = Gaps::default();
+        for n in [5, 6, 9, 10, 0, 1] {
+            g.frame(n);
+        }
+        assert_eq!(g.missed.frames, 2); // 7 and 8
+        for (n, skipped) in [(5, 0), (6, 0), (9, 2), (12, 0)] {
+            g.reply(n, skipped);
+        }
+        assert_eq!(g.missed.replies, 2); // 7, 8 skipped by the daemon; 10, 11 lost
+    }
+}

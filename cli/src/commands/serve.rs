@@ -1,0 +1,96 @@
+//! `lumen serve`: configuration file, then flags, then run until SIGINT/SIGTERM.
+
+use super::CliResult;
+use lumen_service::config::ServeConfig;
+use lumen_service::daemon::{block_termination_signals, Daemon};
+use clap::Args;
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// TOML configuration file (flags override it).
+    #[arg(long, short)]
+    pub config: Option<PathBuf>,
+    /// iceoryx2 file-name prefix in /dev/shm (clients must use the same; env LUMEN_IOX2_PREFIX).
+    #[arg(long, env = "LUMEN_IOX2_PREFIX")]
+    pub prefix: Option<String>,
+    /// Do not serve over iceoryx2.
+    #[arg(long)]
+    pub no_iceoryx2: bool,
+    /// Serve over zenoh, listening here (repeatable), e.g. tcp/0.0.0.0:7447.
+    #[arg(long = "zenoh-listen", value_name = "ENDPOINT")]
+    pub zenoh_listen: Vec<String>,
+    /// Connect zenoh to this router (repeatable).
+    #[arg(long = "zenoh-connect", value_name = "ENDPOINT")]
+    pub zenoh_connect: Vec<String>,
+    /// zenoh mode: router or peer.
+    #[arg(long = "zenoh-mode")]
+    pub zenoh_mode: Option<String>,
+    /// PEM certificate (chain) of the daemon for tls/ endpoints.
+    #[arg(long = "zenoh-tls-cert", value_name = "PEM", requires = "zenoh_tls_key")]
+    pub zenoh_tls_cert: Option<PathBuf>,
+    /// PEM private key of that certificate.
+    #[arg(long = "zenoh-tls-key", value_name = "PEM", requires = "zenoh_tls_cert")]
+    pub zenoh_tls_key: Option<PathBuf>,
+    /// Most sessions at once.
+    #[arg(long)]
+    pub max_sessions: Option<usize>,
+    /// Most observers per session.
+    #[arg(long)]
+    pub max_observers: Option<usize>,
+}
+
+impl ServeArgs {
+    /// The configuration: file, then flags.
+    pub fn config(&self) -> Result<ServeConfig, lumen_service::config::ConfigError> {
+        let mut c = match &self.config {
+            Some(p) => ServeConfig::from_file(p)?,
+            None => ServeConfig::default(),
+        };
+        if self.prefix.is_some() {
+            c.iceoryx2.prefix = self.prefix.clone();
+        }
+        if self.no_iceoryx2 {
+            c.iceoryx2.enabled = false;
+        }
+        if !self.zenoh_listen.is_empty() {
+            c.zenoh.listen = self.zenoh_listen.clone();
+        }
+        if !self.zenoh_connect.is_empty() {
+            c.zenoh.connect = self.zenoh_connect.clone();
+        }
+        if let (Some(certificate), Some(private_key)) = (&self.zenoh_tls_cert, &self.zenoh_tls_key) {
+            c.zenoh.tls = Some(lumen_service::config::TlsFiles { certificate: certificate.clone(), private_key: private_key.clone() });
+        }
+        if let Some(m) = &self.zenoh_mode {
+            c.zenoh.mode = m.clone();
+        }
+        if let Some(n) = self.max_sessions {
+            c.limits.max_sessions = n;
+        }
+        if let Some(n) = self.max_observers {
+            c.limits.max_observers = n;
+        }
+        Ok(c)
+    }
+}
+
+pub fn run(args: ServeArgs) -> CliResult {
+    block_termination_signals();
+    let config = args.config()?;
+    let running = Daemon::new(config.clone()).start()?;
+    let transports = [
+        config.iceoryx2.enabled.then(|| format!("iceoryx2 (prefix {})", config.iceoryx2.prefix.as_deref().unwrap_or("iox2_"))),
+        config.zenoh.enabled().then(|| format!("zenoh {} {:?} {:?}", config.zenoh.mode, config.zenoh.listen, config.zenoh.connect)),
+    ];
+    let transports: Vec<String> = transports.into_iter().flatten().collect();
+    // One line on stdout when serving: scripts and tests wait for it.
+    println!("lumen serve: ready, pid {}, {}", std::process::id(), transports.join(", "));
+    let _ = std::io::stdout().flush();
+    let sig = running.wait_for_signal();
+    tracing::info!("stopping (signal {sig}); {} sessions open", running.registry.len());
+    running.stop();
+    println!("lumen serve: stopped");
+    Ok(())
+}

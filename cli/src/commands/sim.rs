@@ -1,0 +1,177 @@
+//! `lumen sim`: the colonoscopy physics (lumen-sim) as a separate process that gets its
+//! contacts from the daemon, the way a lab's own engine would.
+//!
+//! stdout, for scripts (`lumen demo` reads it): first `session <id>` (so a recorder can
+//! attach), then one JSON object per line: `{"type":"progress",...}` every `--progress-every`
+//! frames and a final `{"type":"summary",...,"error":null}` ([`crate::figures::SimLine`]).
+//! People's messages go to stderr. `--figures FILE` gets one JSON line per frame
+//! ([`crate::figures::FrameRow`]).
+//!
+//! SIGINT / SIGTERM end the run after the current frame: the summary is printed, the session
+//! closed, and the exit status is 130.
+
+use super::transport::TransportArgs;
+use lumen_service::daemon::{block_termination_signals, wait_signal};
+use crate::figures::{FrameRow, SimLine, Tally};
+use clap::Args;
+use lumen_scene::ColonKind;
+use lumen_sim::daemon::DaemonSource;
+use lumen_sim::{setup, SimConfig, SimError, World};
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// The run's length and its colon: the same flags for `lumen sim` and `lumen demo`.
+#[derive(Debug, Clone, Args)]
+pub struct RunArgs {
+    /// Frames to run (1 ms of simulated time each; the default script is 3,000).
+    #[arg(long, default_value_t = 3000)]
+    pub frames: u64,
+    /// The colon.
+    #[arg(long, default_value = "generated")]
+    pub scene: ColonKind,
+    /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    #[command(flatten)]
+    pub run: RunArgs,
+    /// Seed of the generated colon.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+    /// Write each frame's figures here (JSON lines).
+    #[arg(long, value_name = "FILE")]
+    pub figures: Option<PathBuf>,
+    /// A progress line on stdout every this many frames (0: none).
+    #[arg(long, default_value_t = 100)]
+    pub progress_every: u64,
+    /// After the session line, wait for a line (or the end) on stdin before the first
+    /// detection, so that a recorder can attach before anything is sent.
+    #[arg(long)]
+    pub hold: bool,
+    /// Seconds to wait for each reply of the daemon.
+    #[arg(long, default_value_t = 5.0)]
+    pub reply_timeout: f64,
+}
+
+/// Exit status after SIGINT / SIGTERM (128 + SIGINT, as shells report it).
+pub const INTERRUPTED: u8 = 130;
+
+pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::Error>> {
+    // Signals are taken between frames, so the session closes and the summary is printed.
+    block_termination_signals();
+    if !(args.reply_timeout > 0.0 && args.reply_timeout.is_finite()) {
+        return Err(format!("--reply-timeout must be a positive number of seconds, not {}", args.reply_timeout).into());
+    }
+    let t0 = Instant::now();
+    let colon = setup::colon(args.run.scene, args.seed, args.run.data.as_deref()).map_err(|e| format!("the {} colon: {e}", args.run.scene.name()))?;
+    if args.run.scene == ColonKind::Gca {
+        eprintln!("data: {}", lumen_scene::gca::attribution());
+    }
+    eprintln!("lumen sim: {} colon, {} rings x {} spokes, built in {:.2?}", args.run.scene.name(), colon.rings(), colon.spokes, t0.elapsed());
+    let config = SimConfig::default();
+    let spec = setup::scene_spec(&colon, &config.rod, &config.sim);
+    let client = args.transport.client("lumen sim")?;
+    let session = client.open_session(&spec)?;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "session {}", session.id())?;
+    out.flush()?;
+    if args.hold && !wait_for_go()? {
+        eprintln!("lumen sim: interrupted before the first frame");
+        return Ok(std::process::ExitCode::from(INTERRUPTED));
+    }
+    let mut source = DaemonSource::new(session);
+    source.timeout = Duration::from_secs_f64(args.reply_timeout);
+    let mut world = World::new(&colon, config, source)?;
+    eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.run.frames, args.transport.transport());
+    let mut figures = match &args.figures {
+        Some(p) => Some(BufWriter::new(std::fs::File::create(p).map_err(|e| format!("--figures {}: {e}", p.display()))?)),
+        None => None,
+    };
+    let mut tally = Tally::new(args.run.frames);
+    let mut error = None;
+    let mut interrupted = false;
+    let start = Instant::now();
+    for _ in 0..args.run.frames {
+        if let Some(sig) = wait_signal(Duration::ZERO) {
+            error = Some(format!("interrupted by signal {sig} after {} frames", world.frame()));
+            interrupted = true;
+            break;
+        }
+        let row = match world.step().cloned() {
+            Ok(r) => FrameRow {
+                frame: r.frame,
+                physics_us: r.physics_s * 1e6,
+                rtt_us: world.source().last_round_trip_us() as f64,
+                detect_us: world.source().last_detect_us(),
+                contacts: r.contacts,
+                max_penetration_mm: r.max_penetration_mm,
+                escaped: r.escaped,
+                nan: false,
+            },
+            Err(SimError::NonFinite { frame }) => {
+                error = Some(format!("frame {frame} produced a non-finite value (NaN)"));
+                FrameRow { frame, nan: true, ..FrameRow::default() }
+            }
+            Err(e) => {
+                error = Some(e.to_string());
+                break;
+            }
+        };
+        tally.add(&row);
+        if let Some(f) = figures.as_mut() {
+            serde_json::to_writer(&mut *f, &row)?;
+            f.write_all(b"\n")?;
+        }
+        if row.nan {
+            break;
+        }
+        if args.progress_every > 0 && row.frame % args.progress_every == 0 {
+            writeln!(out, "{}", serde_json::to_string(&SimLine::Progress(tally.figures(start.elapsed().as_secs_f64())))?)?;
+            out.flush()?;
+        }
+    }
+    let wall_s = start.elapsed().as_secs_f64();
+    if let Some(mut f) = figures {
+        f.flush()?;
+    }
+    let figures = tally.figures(wall_s);
+    writeln!(out, "{}", serde_json::to_string(&SimLine::Summary { figures: figures.clone(), error: error.clone() })?)?;
+    out.flush()?;
+    eprintln!(
+        "lumen sim: {} frames, {:.0} frames/s, round trip p50 {:.0} us p99 {:.0} us, contacts at most {}, max penetration {:.3} mm, escaped samples at most {}, NaN frames {}",
+        figures.frames, figures.physics_fps, figures.rtt_p50_us, figures.rtt_p99_us, figures.contacts_max, figures.max_penetration_mm, figures.escaped_samples_max, figures.nan_frames
+    );
+    match error {
+        None => Ok(std::process::ExitCode::SUCCESS),
+        Some(e) if interrupted => {
+            eprintln!("lumen sim: {e}");
+            Ok(std::process::ExitCode::from(INTERRUPTED))
+        }
+        Some(e) => Err(e.into()),
+    }
+}
+
+/// Waits for a line or the end of stdin, watching for SIGINT / SIGTERM; false if one came.
+fn wait_for_go() -> Result<bool, Box<dyn std::error::Error>> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::stdin().read_line(&mut line);
+        let _ = tx.send(());
+    });
+    loop {
+        if wait_signal(Duration::ZERO).is_some() {
+            return Ok(false);
+        }
+        match rx.recv_timeout(Duration::from_millis(20)) {
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            _ => return Ok(true),
+        }
+    }
+}

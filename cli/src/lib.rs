@@ -1,0 +1,18 @@
+//! The `lumen` command line over Lumen's crates: it composes the daemon (`lumen-service`), the
+//! client (`lumen-client`), the physics (`lumen-sim`), the scenes and import, and the
+//! benchmarks, and holds what only a person at a terminal needs: progress bars, reports,
+//! plots and recordings.
+//!
+//! - [`commands`]: the subcommands, one module each.
+//! - [`ipc`]: `lumen bench ipc` (round trips over both transports against a bare echo and the
+//!   machine's own wake-up floor).
+//! - [`figures`]: the per-frame and run figures `lumen sim` writes and `lumen demo` reads.
+//! - [`demo_report`]: `lumen demo`'s summary, report and plots; [`procs`]: its child processes.
+//! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`).
+
+pub mod commands;
+pub mod demo_report;
+pub mod figures;
+pub mod ipc;
+pub mod procs;
+pub mod recording;

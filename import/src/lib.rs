@@ -1,0 +1,56 @@
+//! Real colons: a tube model from a triangle surface and a midline.
+//!
+//! 1. [`load_mesh`] reads the surface (OBJ, STL binary or ASCII) and [`load_centerline_csv`]
+//!    the midline.
+//! 2. [`build_tube`] resamples the midline every `ring_spacing` along its arc (after a light
+//!    Gaussian smoothing of its points), smooths its tangents (CT midlines are noisy and ring
+//!    planes follow the tangent), and carries a rotation-minimising frame `(n, b)` along it. At
+//!    each ring it casts `spokes` rays in the ring's plane, from the midline point, with parry3d
+//!    against the surface's `TriMesh`, and keeps the first wall hit as the radial vector.
+//! 3. Rays that do not give the ring's own wall are **repaired, and counted by kind** in the
+//!    [`ImportReport`] (never silently): rays that miss; rays whose first hit is a wall seen from
+//!    outside; rays that reach a *neighbouring loop* where the colon touches itself and the
+//!    surface has a gap (the hit point is much nearer a part of the midline far along the arc
+//!    than its own ring's point); and outliers (far above the ring's median, or a jump against
+//!    the same spoke of both neighbouring rings). A repaired spoke is interpolated from the
+//!    nearest kept spokes of its ring when the gap is at most a quarter turn, else set to the
+//!    ring's median (rings with too few kept rays borrow the median of the nearest good rings).
+//! 4. `inflate` scales every radial vector: the GCA scan was not insufflated, and `inflate = 2`
+//!    turns its collapsed lumen (median radius about 9.4 mm) into a colonoscopy lumen.
+//!
+//! Radial vectors run counter-clockwise about the midline's tangent, spoke 0 along the frame's
+//! normal, as in [`crate::colon`].
+//!
+//! ## Modules
+//! - [`mesh`] and [`centerline`]: the file formats.
+//! - [`build`]: rings, ray casts and repairs.
+//! - [`geom`]: arc length, smoothing along the arc, rotation-minimising frames (f64).
+//! - [`probe`]: tube coordinates for checks (where a point is along a tube, its distance to
+//!   the midline and to the wall), and [`probe::clearance`] (wall overlap, bend tightness).
+
+pub mod build;
+pub mod centerline;
+pub mod geom;
+pub mod mesh;
+pub mod probe;
+
+pub use build::{build_tube, ImportParams, ImportReport, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
+pub use centerline::{load_centerline_csv, parse_centerline_csv, Centerline};
+pub use mesh::{load_mesh, parse_obj, parse_stl, Mesh};
+
+use thiserror::Error;
+
+/// A file that cannot be read or a model that cannot be built.
+#[derive(Debug, Error)]
+pub enum ImportError {
+    #[error("{0}: {1}")]
+    Io(String, #[source] std::io::Error),
+    #[error("{file}: line {line}: {message}")]
+    Parse { file: String, line: usize, message: String },
+    #[error("{0}")]
+    Invalid(String),
+    /// An [`ImportParams`] field out of range: which one (as `ImportParams` names it, less the
+    /// unit), its value, and what it must be.
+    #[error("{name} {value}: expected {expected}")]
+    Param { name: &'static str, value: String, expected: String },
+}

@@ -1,0 +1,250 @@
+//! Import: OBJ / STL / CSV parsing, and tubes built by ray casting on known surfaces.
+
+use lumen_import::*;
+use std::path::PathBuf;
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lumen-import-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const PYRAMID_OBJ: &str = "# a square pyramid, outward faces, in every face syntax
+o pyramid
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0.5 0.5 1.0
+vt 0 0
+vn 0 0 1
+f 1 4 3 2
+f 1/1 2/1 5/1
+f 2//1 3//1 5//1
+f 3/1/1 4/1/1 5/1/1   # trailing comment
+f -5 -1 -2
+";
+
+#[test]
+fn obj_faces_in_every_form_are_fanned() {
+    let m = parse_obj(PYRAMID_OBJ).unwrap();
+    assert_eq!(m.vertices.len(), 5);
+    assert_eq!(m.triangles, vec![[0, 3, 2], [0, 2, 1], [0, 1, 4], [1, 2, 4], [2, 3, 4], [0, 4, 3]]);
+    assert!((m.signed_volume() - 1.0 / 3.0).abs() < 1e-6, "volume {}", m.signed_volume());
+    let err = parse_obj("v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap_err().to_string();
+    assert!(err.contains("line 3") && err.contains('9'), "{err}");
+    let err = parse_obj("v 0 0 zero\n").unwrap_err().to_string();
+    assert!(err.contains("line 1"), "{err}");
+    let d = tmp_dir("obj");
+    let path = d.join("p.OBJ");
+    std::fs::write(&path, PYRAMID_OBJ).unwrap();
+    assert_eq!(load_mesh(&path).unwrap(), m);
+    let err = load_mesh(d.join("absent.obj")).unwrap_err().to_string();
+    assert!(err.contains("absent.obj"), "{err}");
+}
+
+fn pyramid_triangles() -> Vec<[[f32; 3]; 3]> {
+    let m = parse_obj(PYRAMID_OBJ).unwrap();
+    m.triangles.iter().map(|t| t.map(|i| m.vertices[i as usize])).collect()
+}
+
+#[test]
+fn stl_ascii_and_binary_give_the_same_mesh() {
+    let tris = pyramid_triangles();
+    let mut ascii = String::from("solid pyramid\n");
+    for t in &tris {
+        ascii.push_str("  facet normal 0 0 0\n    outer loop\n");
+        for v in t {
+            ascii.push_str(&format!("      vertex {:e} {} {}\n", v[0], v[1], v[2]));
+        }
+        ascii.push_str("    endloop\n  endfacet\n");
+    }
+    ascii.push_str("endsolid pyramid\n");
+    let mut bin = vec![0u8; 80];
+    bin[..6].copy_from_slice(b"binary");
+    bin.extend_from_slice(&(tris.len() as u32).to_le_bytes());
+    for t in &tris {
+        bin.extend(std::iter::repeat_n(0u8, 12)); // normal
+        for v in t {
+            for c in v {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        bin.extend_from_slice(&0u16.to_le_bytes());
+    }
+    assert_eq!(bin.len(), 84 + 50 * tris.len());
+    let d = tmp_dir("stl");
+    std::fs::write(d.join("a.stl"), &ascii).unwrap();
+    std::fs::write(d.join("b.stl"), &bin).unwrap();
+    std::fs::write(d.join("b.mesh"), &bin).unwrap(); // sniffed by content
+    let a = load_mesh(d.join("a.stl")).unwrap();
+    let b = load_mesh(d.join("b.stl")).unwrap();
+    let c = load_mesh(d.join("b.mesh")).unwrap();
+    for m in [&a, &b, &c] {
+        assert_eq!(m.vertices.len(), 5, "equal vertices merged");
+        assert_eq!(m.triangles.len(), 6);
+        assert!((m.signed_volume() - 1.0 / 3.0).abs() < 1e-6);
+    }
+    assert_eq!(a, b);
+    assert_eq!(b, c);
+    assert!(parse_stl(b"solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n endloop\nendfacet\n").is_err());
+    assert!(parse_stl(&bin[..bin.len() - 1]).is_err());
+}
+
+#[test]
+fn centerline_csv_with_header_comments_and_nan() {
+    let text = "# s_mm,x_mm,y_mm,z_mm,r_median_mm\n# anus at s=0, and a comment with commas\n0.0,1,2,3,5.5\n1.0,1,2,4,NaN\n\n2.0,1,2,5,6\n# trailing comment\n";
+    let c = parse_centerline_csv(text).unwrap();
+    assert_eq!(c.points, vec![[1.0, 2.0, 3.0], [1.0, 2.0, 4.0], [1.0, 2.0, 5.0]]);
+    assert_eq!(c.s, Some(vec![0.0, 1.0, 2.0]));
+    let r = c.radius_median.clone().unwrap();
+    assert_eq!(r[0], 5.5);
+    assert!(r[1].is_nan());
+    assert!((c.length() - 2.0).abs() < 1e-9);
+    // No header: three columns are x y z, whitespace separated is fine.
+    let c = parse_centerline_csv("0 0 0\n0 0 1\n0 1 1\n").unwrap();
+    assert_eq!(c.points.len(), 3);
+    assert_eq!(c.s, None);
+    let err = parse_centerline_csv("x,y,z\n0,0,0\n0,0,oops\n").unwrap_err().to_string();
+    assert!(err.contains("line 3"), "{err}");
+    assert!(parse_centerline_csv("x,y,z\n0,0,0\n").is_err(), "one point is not a midline");
+    assert!(parse_centerline_csv("x,y,z\n0,0,0\n0,0,NaN\n").is_err(), "coordinates must be finite");
+}
+
+/// A closed cylinder along z from 0 to `len`, axis through (cx, 0), outward faces.
+fn cylinder(cx: f32, r: f32, len: f32, around: usize, along: usize) -> Mesh {
+    let mut m = Mesh::default();
+    for i in 0..=along {
+        let z = len * i as f32 / along as f32;
+        for k in 0..around {
+            let a = std::f32::consts::TAU * k as f32 / around as f32;
+            m.vertices.push([cx + r * a.cos(), r * a.sin(), z]);
+        }
+    }
+    let id = |i: usize, k: usize| (i * around + k % around) as u32;
+    for i in 0..along {
+        for k in 0..around {
+            m.triangles.push([id(i, k), id(i, k + 1), id(i + 1, k + 1)]);
+            m.triangles.push([id(i, k), id(i + 1, k + 1), id(i + 1, k)]);
+        }
+    }
+    let (bottom, top) = (m.vertices.len() as u32, m.vertices.len() as u32 + 1);
+    m.vertices.push([cx, 0.0, 0.0]);
+    m.vertices.push([cx, 0.0, len]);
+    for k in 0..around {
+        m.triangles.push([bottom, id(0, k + 1), id(0, k)]);
+        m.triangles.push([top, id(along, k), id(along, k + 1)]);
+    }
+    m
+}
+
+fn merge(a: &Mesh, b: &Mesh) -> Mesh {
+    let mut m = a.clone();
+    let off = m.vertices.len() as u32;
+    m.vertices.extend_from_slice(&b.vertices);
+    m.triangles.extend(b.triangles.iter().map(|t| t.map(|i| i + off)));
+    m
+}
+
+/// Drops the triangles of `m` whose centroid lies inside the infinite cylinder (cx, 0, r).
+fn cut(m: &Mesh, cx: f32, r: f32) -> Mesh {
+    let mut out = m.clone();
+    out.triangles.retain(|t| {
+        let c = t.iter().fold([0.0f32; 3], |acc, &i| {
+            let v = m.vertices[i as usize];
+            [acc[0] + v[0] / 3.0, acc[1] + v[1] / 3.0, acc[2] + v[2] / 3.0]
+        });
+        (c[0] - cx).powi(2) + c[1].powi(2) >= r * r
+    });
+    out
+}
+
+fn axis(n: usize) -> Centerline {
+    Centerline { points: (0..n).map(|i| [0.0, 0.0, 5.0 + 90.0 * i as f32 / (n - 1) as f32]).collect(), ..Default::default() }
+}
+
+fn radii(t: &lumen_detect::Tube) -> (f32, f32) {
+    t.radial.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).fold((f32::INFINITY, 0.0f32), |(a, b), r| (a.min(r), b.max(r)))
+}
+
+#[test]
+fn a_cylinder_imports_with_its_radius_and_no_repairs() {
+    let mesh = cylinder(0.0, 10.0, 100.0, 64, 20);
+    assert!(mesh.signed_volume() > 0.0);
+    let params = ImportParams { spokes: 32, ring_spacing: 1.0, inflate: 1.0, ..Default::default() };
+    let (tube, rep) = build_tube(&mesh, &axis(10), &params).unwrap();
+    eprintln!("{rep}");
+    assert_eq!(tube.rings(), 91);
+    assert_eq!(tube.spokes, 32);
+    assert_eq!(rep.rays, 91 * 32);
+    assert_eq!(rep.repaired(), 0, "{rep}");
+    assert_eq!(rep.kept, rep.rays);
+    assert!(rep.oriented);
+    let (lo, hi) = radii(&tube);
+    // 64-gon inscribed in radius 10: between 10 cos(pi/64) and 10.
+    assert!(lo > 9.985 && hi < 10.001, "radii {lo}..{hi}");
+    assert_eq!(tube.first_non_star(), None);
+    assert!((rep.radius_mm[2] - 10.0).abs() < 0.02);
+    let text = rep.to_string();
+    assert!(text.contains("91 rings x 32 spokes") && text.contains("0 (0.00%) were repaired"), "{text}");
+    // Inflated twice.
+    let (tube2, rep2) = build_tube(&mesh, &axis(10), &ImportParams { inflate: 2.0, ..params.clone() }).unwrap();
+    let (lo, hi) = radii(&tube2);
+    assert!(lo > 19.97 && hi < 20.002, "inflated radii {lo}..{hi}");
+    assert_eq!(rep2.repaired(), 0);
+    // Spokes run counter-clockwise about the midline's direction (+z), spoke 0 at +x.
+    let (s0, s1) = (tube.spoke(50, 0), tube.spoke(50, 1));
+    assert!(s0[0] > 9.9 && s0[1].abs() < 1e-3);
+    assert!(s0[0] * s1[1] - s0[1] * s1[0] > 0.0);
+}
+
+#[test]
+fn a_second_cylinder_fused_to_it_is_repaired_and_counted() {
+    // Two parallel cylinders 18 mm apart overlap by 2 mm; keeping only the outside parts of
+    // each gives one surface with a slit between the lumens, like the GCA colon where it touches
+    // itself. Rays within about 26 degrees of +x pass the slit and hit the far wall of the
+    // second lumen (23.9 to 28 mm away).
+    let (a, b) = (cylinder(0.0, 10.0, 100.0, 64, 20), cylinder(18.0, 10.0, 100.0, 64, 20));
+    let fused = merge(&cut(&a, 18.0, 10.0), &cut(&b, 0.0, 10.0));
+    let params = ImportParams { spokes: 32, ring_spacing: 1.0, inflate: 1.0, ..Default::default() };
+    let (tube, rep) = build_tube(&fused, &axis(10), &params).unwrap();
+    eprintln!("{rep}");
+    // Five rays per ring (0, +-11.25, +-22.5 degrees) reach the other lumen.
+    assert_eq!(rep.repaired(), 5 * 91, "{rep}");
+    assert_eq!(rep.outliers, 5 * 91);
+    assert_eq!(rep.interpolated, 5 * 91);
+    assert_eq!(rep.kept + rep.repaired(), rep.rays);
+    let (lo, hi) = radii(&tube);
+    assert!(lo > 9.9 && hi < 10.05, "repaired radii {lo}..{hi}");
+    assert!(rep.to_string().contains(&format!("{} were outliers", 5 * 91)));
+
+    // Overlapping complete surfaces: the first hit is the second cylinder's wall, from outside.
+    let both = merge(&a, &b);
+    let (tube, rep) = build_tube(&both, &axis(10), &params).unwrap();
+    eprintln!("{rep}");
+    assert_eq!(rep.from_outside, 5 * 91, "{rep}");
+    assert_eq!(rep.repaired(), rep.from_outside);
+    let (lo, hi) = radii(&tube);
+    assert!(lo > 9.9 && hi < 10.05, "repaired radii {lo}..{hi}");
+}
+
+#[test]
+fn bad_parameters_are_refused() {
+    let mesh = cylinder(0.0, 10.0, 100.0, 16, 4);
+    for (p, named) in [
+        (ImportParams { spokes: 2, ..Default::default() }, "spokes 2"),
+        (ImportParams { spokes: 257, ..Default::default() }, "spokes 257"),
+        (ImportParams { ring_spacing: 0.0, ..Default::default() }, "ring_spacing 0"),
+        (ImportParams { inflate: -1.0, ..Default::default() }, "inflate -1"),
+        (ImportParams { tangent_smoothing_mm: -1.0, ..Default::default() }, "tangent_smoothing -1"),
+        (ImportParams { point_smoothing_mm: f32::NAN, ..Default::default() }, "point_smoothing NaN"),
+    ] {
+        let e = build_tube(&mesh, &axis(3), &p).unwrap_err().to_string();
+        assert!(e.contains(named), "{e}");
+        assert_eq!(p.validate().unwrap_err().to_string(), e);
+    }
+    assert!(ImportParams::default().validate().is_ok() && ImportParams::gca().validate().is_ok());
+    assert!(build_tube(&Mesh::default(), &axis(3), &ImportParams::default()).is_err());
+    let one = Centerline { points: vec![[0.0; 3], [0.0; 3]], ..Default::default() };
+    assert!(build_tube(&mesh, &one, &ImportParams::default()).is_err());
+}

@@ -1,0 +1,563 @@
+//! A seeded, anatomically plausible colon, in millimetres.
+//!
+//! **Coordinates** (millimetres, patient frame): `x` towards the patient's left, `y` anterior
+//! (towards the belly), `z` cranial (towards the head); the anus is at the origin and the first
+//! ring, and the midline runs from there through the rectum, the sigmoid loop, the descending
+//! colon, the splenic flexure, the sagging transverse colon, the hepatic flexure and the
+//! ascending colon to the caecum, the last ring.
+//!
+//! **Midline.** A uniform cubic B-spline (C2: curvature is continuous) through a template of
+//! anatomical waypoints, each moved by a seeded random offset of up to
+//! [`ColonParams::jitter_mm`], then scaled uniformly to [`ColonParams::length_mm`] and resampled
+//! every [`ColonParams::ring_spacing`] along its arc. A candidate is kept only if its bends are
+//! gentle enough for the lumen (bend radius at least [`MIN_BEND_RATIO`] times the local lumen
+//! radius, so rings never cross inside the lumen) and its loops keep their walls apart (midline
+//! points more than `max(40 mm, 1.5 (R_i + R_j))` apart along the arc are further apart in space
+//! than `R_i + R_j` plus [`MIN_WALL_GAP_MM`], `R` the largest radius of each ring; nearer pairs
+//! are the bend check's business, since no chord exceeds its arc); otherwise the next candidate of the same seed is tried, and after
+//! [`MAX_ATTEMPTS`] the unperturbed template (which passes; a test checks it) is used.
+//!
+//! **Lumen.** Radius `R(s, theta)` in `[radius_mm[0], radius_mm[1]]` (default 20-35 mm, the
+//! insufflated colon): a base radius per region (narrowest in the sigmoid, widest in the
+//! caecum) blended smoothly over 40 mm at region boundaries; three taeniae coli 120 degrees
+//! apart, slowly twisting, where the section is slightly narrower (a rounded triangle); and
+//! haustral folds: semilunar ridges between each pair of taeniae, every
+//! [`ColonParams::haustra_spacing_mm`] along the arc (staggered between the three sectors,
+//! jittered by the seed), up to [`ColonParams::haustra_depth_mm`] deep, absent in the rectum and
+//! shallower in the sigmoid. Below 1.5 m of midline the radii shrink in proportion (so a short
+//! colon is a scaled-down one, free of overlaps).
+//!
+//! **Rings.** Spoke `k` of a ring points along `cos(a) n + sin(a) b`, `a = 2 pi k / B`, with
+//! `(n, b)` a rotation-minimising frame and `b = t x n` (`t` the unit tangent): counter-
+//! clockwise about the tangent.
+
+use lumen_import::geom::{any_perpendicular, arc_lengths, at_arc, locate_arc, rotation_minimising, D3};
+use crate::rng::{hash_unit, Rng};
+use lumen_detect::Tube;
+use std::f64::consts::{PI, TAU};
+
+/// Smallest accepted ratio of midline bend radius to local lumen radius.
+pub const MIN_BEND_RATIO: f64 = 1.5;
+/// Smallest accepted wall-to-wall gap between loops, millimetres (at 1.5 m; scaled below).
+pub const MIN_WALL_GAP_MM: f64 = 5.0;
+/// Candidates tried per seed before falling back to the template.
+pub const MAX_ATTEMPTS: u32 = 64;
+
+/// Parameters of [`generate`]. Lengths in millimetres.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColonParams {
+    /// Midline length (default 1500 mm, the adult colon).
+    pub length_mm: f32,
+    /// Arc length between rings (default 1.2 mm: about 1,250 rings).
+    pub ring_spacing: f32,
+    /// Radial vectors per ring (default 32).
+    pub spokes: usize,
+    /// Smallest and largest lumen radius (default 20 and 35 mm, insufflated), for a 1.5 m
+    /// colon; shorter colons scale them down in proportion.
+    pub radius_mm: [f32; 2],
+    /// Spacing of haustral folds along the arc (default 30 mm).
+    pub haustra_spacing_mm: f32,
+    /// Depth of the haustral folds (default 4 mm; at most 30% of the radius range is used).
+    pub haustra_depth_mm: f32,
+    /// Size (RMS) of the smooth random displacement of the anatomical waypoints, at 1.5 m
+    /// (default 10 mm).
+    pub jitter_mm: f32,
+    /// The seed: equal parameters and seed give bit-identical tubes.
+    pub seed: u64,
+}
+
+impl Default for ColonParams {
+    fn default() -> Self {
+        Self {
+            length_mm: 1500.0,
+            ring_spacing: 1.2,
+            spokes: 32,
+            radius_mm: [20.0, 35.0],
+            haustra_spacing_mm: 30.0,
+            haustra_depth_mm: 4.0,
+            jitter_mm: 10.0,
+            seed: 0,
+        }
+    }
+}
+
+impl ColonParams {
+    /// The defaults with this seed.
+    pub fn seeded(seed: u64) -> Self {
+        Self { seed, ..Self::default() }
+    }
+}
+
+/// Anatomical regions, in order from the anus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Region {
+    Rectum,
+    Sigmoid,
+    Descending,
+    SplenicFlexure,
+    Transverse,
+    HepaticFlexure,
+    Ascending,
+    Caecum,
+}
+
+impl Region {
+    pub const ALL: [Region; 8] = [
+        Region::Rectum,
+        Region::Sigmoid,
+        Region::Descending,
+        Region::SplenicFlexure,
+        Region::Transverse,
+        Region::HepaticFlexure,
+        Region::Ascending,
+        Region::Caecum,
+    ];
+
+    /// Base lumen level in [0, 1] of the radius range.
+    fn level(self) -> f64 {
+        match self {
+            Region::Rectum => 0.45,
+            Region::Sigmoid => 0.0,
+            Region::Descending => 0.25,
+            Region::SplenicFlexure => 0.4,
+            Region::Transverse => 0.55,
+            Region::HepaticFlexure => 0.6,
+            Region::Ascending => 0.75,
+            Region::Caecum => 1.0,
+        }
+    }
+
+    /// Haustral fold strength in [0, 1].
+    fn haustra(self) -> f64 {
+        match self {
+            Region::Rectum => 0.0,
+            Region::Sigmoid => 0.6,
+            _ => 1.0,
+        }
+    }
+}
+
+/// The template: waypoints of a 1.5 m adult colon (mm, patient frame) and the region that
+/// starts at each waypoint, if any.
+const TEMPLATE: [([f64; 3], Option<Region>); 47] = [
+    ([0.0, 0.0, 0.0], Some(Region::Rectum)), // 0
+    ([0.0, -15.0, 40.0], None), // 1
+    ([0.0, -35.0, 80.0], None), // 2
+    ([0.0, -40.0, 120.0], None), // 3
+    ([-5.0, -30.0, 160.0], Some(Region::Sigmoid)), // 4
+    ([-20.0, -10.0, 195.0], None), // 5
+    ([-45.0, 12.0, 218.0], None), // 6
+    ([-61.0, 42.0, 238.0], None), // 7
+    ([-61.0, 81.0, 248.0], None), // 8
+    ([-35.0, 112.0, 253.0], None), // 9
+    ([5.0, 119.0, 250.0], None), // 10
+    ([41.0, 99.0, 240.0], None), // 11
+    ([70.0, 70.0, 227.0], None), // 12
+    ([100.0, 40.0, 212.0], None), // 13
+    ([118.0, 10.0, 203.0], None), // 14
+    ([131.0, -20.0, 207.0], None), // 15
+    ([138.0, -45.0, 225.0], None), // 16
+    ([140.0, -60.0, 258.0], Some(Region::Descending)), // 17
+    ([139.0, -62.0, 298.0], None), // 18
+    ([135.0, -55.0, 340.0], None), // 19
+    ([128.0, -44.0, 385.0], None), // 20
+    ([122.0, -36.0, 420.0], Some(Region::SplenicFlexure)), // 21
+    ([114.0, -14.0, 447.0], None), // 22
+    ([104.0, 16.0, 457.0], None), // 23
+    ([93.0, 46.0, 450.0], None), // 24
+    ([82.0, 68.0, 428.0], None), // 25
+    ([72.0, 78.0, 400.0], Some(Region::Transverse)), // 26
+    ([60.0, 90.0, 372.0], None), // 27
+    ([42.0, 101.0, 354.0], None), // 28
+    ([20.0, 106.0, 344.0], None), // 29
+    ([-5.0, 108.0, 340.0], None), // 30
+    ([-30.0, 106.0, 344.0], None), // 31
+    ([-52.0, 101.0, 354.0], None), // 32
+    ([-70.0, 92.0, 372.0], None), // 33
+    ([-82.0, 88.0, 400.0], Some(Region::HepaticFlexure)), // 34
+    ([-95.0, 81.0, 433.0], None), // 35
+    ([-108.0, 56.0, 458.0], None), // 36
+    ([-118.0, 23.0, 467.0], None), // 37
+    ([-127.0, -10.0, 458.0], None), // 38
+    ([-133.0, -35.0, 433.0], None), // 39
+    ([-137.0, -44.0, 400.0], Some(Region::Ascending)), // 40
+    ([-138.0, -50.0, 360.0], None), // 41
+    ([-135.0, -50.0, 318.0], None), // 42
+    ([-130.0, -44.0, 278.0], None), // 43
+    ([-124.0, -34.0, 240.0], Some(Region::Caecum)), // 44
+    ([-121.0, -21.0, 212.0], None), // 45
+    ([-119.0, -8.0, 188.0], None), // 46
+];
+
+/// Reference midline length of the template's scale, mm.
+const REFERENCE_MM: f64 = 1500.0;
+
+/// A generated colon with what the generator knows about it.
+#[derive(Debug, Clone)]
+pub struct GeneratedColon {
+    pub tube: Tube,
+    /// Arc length of each ring, mm (ring `i` at `i * ring_spacing`).
+    pub arc: Vec<f32>,
+    /// Each region with the arc length where it starts, in order.
+    pub regions: Vec<(Region, f32)>,
+    /// Which candidate was kept (1 = the first); 0 when the template was used.
+    pub attempt: u32,
+    /// Smallest midline bend radius over the local lumen radius.
+    pub min_bend_ratio: f32,
+    /// Smallest wall-to-wall gap between loops, mm (on the midline-and-radius envelope).
+    pub min_wall_gap_mm: f32,
+}
+
+impl GeneratedColon {
+    /// The region holding arc length `s`.
+    pub fn region_at(&self, s: f32) -> Region {
+        let mut r = self.regions[0].0;
+        for &(reg, start) in &self.regions {
+            if s >= start {
+                r = reg;
+            }
+        }
+        r
+    }
+}
+
+/// Generates the colon for `params` (see the module docs).
+///
+/// # Panics
+/// If a parameter is out of range: length or spacing not positive, fewer than 2 or more than
+/// 65,536 rings, spokes outside 3..=256, radii not `0 < min <= max`.
+pub fn generate(params: &ColonParams) -> Tube {
+    generate_detailed(params).tube
+}
+
+/// Uniform cubic B-spline span through `w[i-1..=i+2]` at `u`: position and derivative.
+fn bspline(w: &[D3], i: usize, u: f64) -> (D3, D3) {
+    let (p0, p1, p2, p3) = (w[i], w[i + 1], w[i + 2], w[i + 3]);
+    let u2 = u * u;
+    let u3 = u2 * u;
+    let pos = (p0 * (1.0 - u).powi(3) + p1 * (3.0 * u3 - 6.0 * u2 + 4.0) + p2 * (-3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0) + p3 * u3) / 6.0;
+    let der = (p0 * (-3.0 * (1.0 - u) * (1.0 - u)) + p1 * (9.0 * u2 - 12.0 * u) + p2 * (-9.0 * u2 + 6.0 * u + 3.0) + p3 * (3.0 * u2)) / 6.0;
+    (pos, der)
+}
+
+/// Dense samples of the spline through `way` (phantom end points make it start and end at the
+/// first and last waypoint with zero curvature): positions, tangents, arc, and the arc length
+/// nearest each waypoint.
+struct Dense {
+    pos: Vec<D3>,
+    tan: Vec<D3>,
+    arc: Vec<f64>,
+    way_arc: Vec<f64>,
+}
+
+const PER_SPAN: usize = 256;
+
+fn dense(way: &[D3]) -> Dense {
+    let m = way.len();
+    let mut w = Vec::with_capacity(m + 2);
+    w.push(way[0] * 2.0 - way[1]);
+    w.extend_from_slice(way);
+    w.push(way[m - 1] * 2.0 - way[m - 2]);
+    let mut pos = Vec::new();
+    let mut tan = Vec::new();
+    for i in 0..m - 1 {
+        for j in 0..PER_SPAN {
+            let (p, d) = bspline(&w, i, j as f64 / PER_SPAN as f64);
+            pos.push(p);
+            tan.push(d.normalize());
+        }
+    }
+    let (p, d) = bspline(&w, m - 2, 1.0);
+    pos.push(p);
+    tan.push(d.normalize());
+    let arc = arc_lengths(&pos);
+    // The B-spline passes near waypoint k at parameter k (span k, u = 0).
+    let way_arc = (0..m).map(|k| arc[(k * PER_SPAN).min(pos.len() - 1)]).collect();
+    Dense { pos, tan, arc, way_arc }
+}
+
+/// Radius model of one colon: everything `R(s, theta)` needs.
+struct RadiusModel {
+    lo: f64,
+    span: f64,
+    fold: f64,
+    sector: f64,
+    /// (start arc, region)
+    regions: Vec<(f64, Region)>,
+    haustra_spacing: f64,
+    seed: u64,
+    taenia_phase: f64,
+}
+
+const BLEND_MM: f64 = 40.0;
+
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+impl RadiusModel {
+    /// A region property blended smoothly over `BLEND_MM` around each boundary.
+    fn blended(&self, s: f64, f: impl Fn(Region) -> f64) -> f64 {
+        let mut v = f(self.regions[0].1);
+        for w in self.regions.windows(2) {
+            let (start, reg) = w[1];
+            let t = smoothstep((s - (start - BLEND_MM / 2.0)) / BLEND_MM);
+            v = v * (1.0 - t) + f(reg) * t;
+        }
+        v
+    }
+
+    fn taenia_angle(&self, s: f64) -> f64 {
+        self.taenia_phase + 0.4 * (TAU * s / 700.0).sin()
+    }
+
+    /// Lumen radius at arc `s`, angle `theta` from the frame's normal towards its binormal.
+    fn radius(&self, s: f64, theta: f64) -> f64 {
+        let base = self.blended(s, Region::level);
+        let haustra = self.blended(s, Region::haustra);
+        let rel = (theta - self.taenia_angle(s)).rem_euclid(TAU);
+        // Rounded triangle: narrowest at the three taeniae (cos(3 rel) = 1 there).
+        let sector = -(3.0 * rel).cos();
+        // Fold window between taeniae: zero at the taeniae.
+        let window = (1.5 * rel).sin().powi(2);
+        let j = (rel / (TAU / 3.0)).floor() as i64;
+        let h = self.haustra_spacing;
+        let phase = s / h - j as f64 / 3.0;
+        let nearest = phase.round();
+        let mut fold = 0.0;
+        for n in [nearest - 1.0, nearest, nearest + 1.0] {
+            let jitter = 0.3 * (hash_unit(self.seed, n as i64 as u64, j as u64) - 0.5);
+            let d = (phase - n - jitter) * h;
+            let half = 0.3 * h;
+            if d.abs() < half {
+                fold = f64::max(fold, 0.5 * (1.0 + (PI * d / half).cos()));
+            }
+        }
+        self.lo + self.fold + self.sector + base * (self.span - self.fold - 2.0 * self.sector) + self.sector * sector - self.fold * haustra * window * fold
+    }
+
+    /// Largest radius at `s` over all angles (an envelope for the clearance check).
+    fn max_radius(&self, s: f64) -> f64 {
+        let base = self.blended(s, Region::level);
+        self.lo + self.fold + self.sector + base * (self.span - self.fold - 2.0 * self.sector) + self.sector
+    }
+}
+
+struct Candidate {
+    pos: Vec<D3>,
+    tan: Vec<D3>,
+    arc: Vec<f64>,
+    regions: Vec<(f64, Region)>,
+}
+
+/// Builds a candidate midline (dense, scaled to `length`).
+fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
+    let scale0 = length / REFERENCE_MM;
+    let mut way: Vec<D3> = TEMPLATE.iter().map(|(p, _)| D3::new(p[0], p[1], p[2])).collect();
+    if let Some(rng) = rng {
+        // Global variation: sigmoid loop size, transverse sag, body proportions.
+        let sig: Vec<usize> = (6..=12).collect();
+        let c = sig.iter().map(|&k| way[k]).sum::<D3>() / sig.len() as f64;
+        let loop_scale = rng.range(0.9, 1.1);
+        for &k in &sig {
+            way[k] = c + (way[k] - c) * loop_scale;
+        }
+        let sag = rng.range(-15.0, 15.0);
+        for (k, w) in [(27usize, 0.3), (28, 0.6), (29, 0.9), (30, 1.0), (31, 0.9), (32, 0.6), (33, 0.3)] {
+            way[k].z += sag * w;
+        }
+        let aniso = D3::new(rng.range(0.95, 1.05), rng.range(0.95, 1.05), rng.range(0.95, 1.05));
+        for w in way.iter_mut() {
+            *w = w.component_mul(&aniso);
+        }
+        // A smooth random displacement field along the waypoints: Fourier modes with amplitude
+        // falling as 1/m, so neighbouring waypoints move together and bends stay round.
+        let m_count = way.len() as f64;
+        let modes: Vec<(f64, D3, D3)> = (1..=8)
+            .map(|m| {
+                let mut v = || D3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                (m as f64, v(), v())
+            })
+            .collect();
+        // Each mode's expected squared size is 1 / m^2: scale the sum to an RMS of `jitter`.
+        let rms = modes.iter().map(|(m, _, _)| 1.0 / (m * m)).sum::<f64>().sqrt();
+        for (k, w) in way.iter_mut().enumerate() {
+            let x = PI * k as f64 / (m_count - 1.0);
+            let mut d = D3::zeros();
+            for (m, a, b) in &modes {
+                d += (a * (m * x).sin() + b * (m * x).cos()) / *m;
+            }
+            // The anus stays at the origin.
+            let ramp = (k as f64 / 3.0).min(1.0);
+            *w += d * (jitter * ramp / rms);
+        }
+    }
+    for w in way.iter_mut() {
+        *w *= scale0;
+    }
+    let d = dense(&way);
+    let k = length / d.arc[d.arc.len() - 1];
+    let pos = d.pos.iter().map(|p| p * k).collect();
+    let arc = d.arc.iter().map(|a| a * k).collect();
+    let regions = TEMPLATE
+        .iter()
+        .zip(&d.way_arc)
+        .filter_map(|((_, r), &a)| r.map(|r| (a * k, r)))
+        .collect();
+    Candidate { pos, tan: d.tan, arc, regions }
+}
+
+/// Bend ratio and wall gap of a candidate, on samples every `step` mm.
+fn check(c: &Candidate, rm: &RadiusModel, step: f64) -> (f64, f64) {
+    let total = c.arc[c.arc.len() - 1];
+    let n = (total / step).floor() as usize + 1;
+    let s: Vec<f64> = (0..n).map(|i| i as f64 * step).collect();
+    let p: Vec<D3> = s.iter().map(|&x| at_arc(&c.pos, &c.arc, x)).collect();
+    let r: Vec<f64> = s.iter().map(|&x| rm.max_radius(x)).collect();
+    let mut gap = f64::INFINITY;
+    for i in 0..n {
+        for j in i + 1..n {
+            if s[j] - s[i] <= (1.5 * (r[i] + r[j])).max(40.0) {
+                continue;
+            }
+            gap = gap.min((p[i] - p[j]).norm() - r[i] - r[j]);
+        }
+    }
+    // Bend radius from the dense tangents: |dt/ds| over a short window.
+    let mut ratio = f64::INFINITY;
+    let h = 2.0;
+    for i in 0..n {
+        let (a, b) = (s[i] - h, s[i] + h);
+        if a < 0.0 || b > total {
+            continue;
+        }
+        let ta = at_arc(&c.tan, &c.arc, a).normalize();
+        let tb = at_arc(&c.tan, &c.arc, b).normalize();
+        let kappa = 2.0 * (0.5 * (ta - tb).norm()).asin() / (b - a);
+        if kappa > 0.0 {
+            ratio = ratio.min(1.0 / kappa / r[i]);
+        }
+    }
+    (ratio, gap)
+}
+
+/// [`generate`], with the arc of each ring, the regions and the checks.
+///
+/// # Panics
+/// As [`generate`].
+pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
+    let length = params.length_mm as f64;
+    let spacing = params.ring_spacing as f64;
+    assert!(length.is_finite() && length > 0.0, "length_mm must be > 0, got {}", params.length_mm);
+    assert!(spacing.is_finite() && spacing > 0.0, "ring_spacing must be > 0, got {}", params.ring_spacing);
+    let rings = (length / spacing + 1e-9).floor() as usize + 1;
+    assert!((2..=65_536).contains(&rings), "{rings} rings (length {length} mm / spacing {spacing} mm); 2 to 65,536 are allowed");
+    assert!((3..=256).contains(&params.spokes), "{} spokes; 3 to 256 are allowed", params.spokes);
+    let [rmin, rmax] = params.radius_mm.map(|r| r as f64);
+    assert!(rmin > 0.0 && rmin <= rmax && rmax.is_finite(), "radius_mm must satisfy 0 < min <= max, got {:?}", params.radius_mm);
+    let shrink = (length / REFERENCE_MM).min(1.0);
+    let (lo, hi) = (rmin * shrink, rmax * shrink);
+    let span = hi - lo;
+    let fold = (params.haustra_depth_mm as f64 * shrink).clamp(0.0, 0.3 * span);
+    let sector = 0.1 * span;
+    let jitter = params.jitter_mm.max(0.0) as f64;
+
+    let make_rm = |regions: &[(f64, Region)]| RadiusModel {
+        lo,
+        span,
+        fold,
+        sector,
+        regions: regions.to_vec(),
+        haustra_spacing: (params.haustra_spacing_mm as f64 * shrink).max(1e-3),
+        seed: params.seed,
+        taenia_phase: hash_unit(params.seed, 0x7a, 0) * TAU,
+    };
+    let step = (2.0 * shrink).max(spacing.min(2.0));
+    let min_gap = MIN_WALL_GAP_MM * shrink;
+
+    let mut rng = Rng::new(params.seed, 0xC0_10_4E);
+    let mut chosen = None;
+    for attempt in 1..=MAX_ATTEMPTS {
+        let c = candidate(length, jitter, Some(&mut rng));
+        let rm = make_rm(&c.regions);
+        let (ratio, gap) = check(&c, &rm, step);
+        if ratio >= MIN_BEND_RATIO && gap >= min_gap {
+            chosen = Some((c, rm, attempt, ratio, gap));
+            break;
+        }
+    }
+    let (c, rm, attempt, ratio, gap) = chosen.unwrap_or_else(|| {
+        let c = candidate(length, 0.0, None);
+        let rm = make_rm(&c.regions);
+        let (ratio, gap) = check(&c, &rm, step);
+        (c, rm, 0, ratio, gap)
+    });
+
+    // Rings every `spacing` along the arc, with a rotation-minimising frame.
+    let arc: Vec<f64> = (0..rings).map(|i| i as f64 * spacing).collect();
+    let pts: Vec<D3> = arc.iter().map(|&s| at_arc(&c.pos, &c.arc, s)).collect();
+    let tan: Vec<D3> = arc
+        .iter()
+        .map(|&s| {
+            let (i, u) = locate_arc(&c.arc, s);
+            (c.tan[i] * (1.0 - u) + c.tan[(i + 1).min(c.tan.len() - 1)] * u).normalize()
+        })
+        .collect();
+    // Start the frame with n pointing anterior-ish (y), so angles are comparable across seeds.
+    let n0 = {
+        let t = tan[0];
+        let y = D3::y();
+        (y - t * y.dot(&t)).try_normalize(1e-6).unwrap_or_else(|| any_perpendicular(t))
+    };
+    let nrm = rotation_minimising(&pts, &tan, n0);
+    let b = params.spokes;
+    let mut radial = Vec::with_capacity(rings * b);
+    for i in 0..rings {
+        let bin = tan[i].cross(&nrm[i]);
+        for k in 0..b {
+            let a = TAU * k as f64 / b as f64;
+            let dir = nrm[i] * a.cos() + bin * a.sin();
+            let r = rm.radius(arc[i], a);
+            radial.push(lumen_import::geom::f3(dir * r));
+        }
+    }
+    let points = pts.into_iter().map(lumen_import::geom::f3).collect();
+    let tube = Tube::new(points, radial, b).expect("generated colon is a valid tube");
+    GeneratedColon {
+        tube,
+        arc: arc.iter().map(|&a| a as f32).collect(),
+        regions: c.regions.iter().map(|&(a, r)| (r, a as f32)).collect(),
+        attempt,
+        min_bend_ratio: ratio as f32,
+        min_wall_gap_mm: gap as f32,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn template_passes_its_own_checks() {
+        for length in [500.0, 1500.0, 3000.0] {
+            let c = candidate(length, 0.0, None);
+            let shrink = (length / REFERENCE_MM).min(1.0);
+            let span = 15.0 * shrink;
+            let rm = RadiusModel {
+                lo: 20.0 * shrink,
+                span,
+                fold: (4.0 * shrink).min(0.3 * span),
+                sector: 0.1 * span,
+                regions: c.regions.clone(),
+                haustra_spacing: 30.0,
+                seed: 0,
+                taenia_phase: 0.0,
+            };
+            let (ratio, gap) = check(&c, &rm, 2.0 * shrink);
+            eprintln!("template at {length} mm: bend ratio {ratio:.2}, wall gap {gap:.1} mm");
+            assert!(ratio >= MIN_BEND_RATIO, "bend ratio {ratio}");
+            assert!(gap >= MIN_WALL_GAP_MM * shrink, "wall gap {gap}");
+        }
+    }
+}

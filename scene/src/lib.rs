@@ -1,0 +1,84 @@
+//! Scenes for Lumen's collision detection: a seeded generated colon, a kinematic endoscope
+//! inserted into it frame by frame, and real colons imported from a triangle surface and a
+//! midline.
+//!
+//! **Units.** Millimetres throughout for the scenes built here (the generated colon, the scope,
+//! the GCA colon); an imported surface keeps its own unit (the GCA files are in millimetres).
+//! Tubes and rods are `lumen_detect`'s [`Tube`](lumen_detect::Tube) and
+//! [`Rod`](lumen_detect::Rod): control points along the midline and, for a tube, `spokes` radial
+//! vectors per ring, counter-clockwise about the midline's direction.
+//!
+//! **Determinism.** Everything random takes a seed (a SplitMix64 stream of this crate, stable
+//! across platforms and dependency versions): equal inputs give bit-identical outputs.
+//!
+//! ## Modules
+//! - [`colon`]: [`colon::generate`], a plausible 1.5 m colon (rectum, sigmoid loop, descending
+//!   colon, splenic flexure, sagging transverse colon, hepatic flexure, ascending colon, caecum),
+//!   radius 20-35 mm with haustral folds, checked free of wall overlap and of bends tighter than
+//!   the lumen; any length and ring spacing.
+//! - [`endoscope`]: [`endoscope::Insertion`], a 1.6 m, 13 mm scope pushed through the rectum,
+//!   riding the outer wall of bends and deforming it, advancing about 1 mm per frame, with seeded
+//!   escapes through the wall; [`endoscope::colonoscopy_scene`] for benchmarks.
+//! - [`frames`]: a colonoscopy as a spec and flat frame states (the IPC benchmark, the
+//!   daemon's tests).
+//! - [`gca`]: the real colon, found beside the workspace and imported through `lumen-import`
+//!   (which also holds the midline geometry and the tube probes these scenes use).
+//!
+//! ## Data attribution
+//! The real colon is the Edinburgh Gut Cell Atlas model EdinGCA_3D_00090 (surface and midline
+//! derived from Comparative-Pathology/GCA-Models), licensed CC BY 4.0. Wherever it or results
+//! derived from it are shown, credit: "Edinburgh Gut Cell Atlas models
+//! (Comparative-Pathology/GCA-Models), CC BY 4.0, doi:10.1186/s12911-023-02111-9"
+//! ([`gca::attribution`]).
+
+pub mod colon;
+pub mod endoscope;
+pub mod frames;
+pub mod gca;
+mod rng;
+
+pub use colon::{generate, ColonParams};
+pub use endoscope::{colonoscopy_scene, Frame, Insertion};
+
+/// The colons the scenes offer: the generated one (the default everywhere) and the real GCA
+/// colon ([`gca`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ColonKind {
+    /// [`colon::generate`]: seeded, 1.5 m, rings every 1.2 mm by default.
+    #[default]
+    Generated,
+    /// The Edinburgh Gut Cell Atlas colon EdinGCA_3D_00090 ([`gca::load`]).
+    Gca,
+}
+
+impl ColonKind {
+    /// Every kind, in the order reports list them.
+    pub const ALL: [ColonKind; 2] = [ColonKind::Generated, ColonKind::Gca];
+
+    /// `generated` or `gca`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ColonKind::Generated => "generated",
+            ColonKind::Gca => "gca",
+        }
+    }
+}
+
+impl std::fmt::Display for ColonKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A colon name that is neither `generated` nor `gca`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown colon {0:?}: use generated or gca")]
+pub struct UnknownColon(pub String);
+
+impl std::str::FromStr for ColonKind {
+    type Err = UnknownColon;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        ColonKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| UnknownColon(s.to_owned()))
+    }
+}

@@ -1,0 +1,85 @@
+//! The real colon (Edinburgh Gut Cell Atlas EdinGCA_3D_00090, CC BY 4.0,
+//! doi:10.1186/s12911-023-02111-9), when its files are at ../shared/data/colon-gca00090.
+
+use lumen_scene::endoscope::{Frame, Insertion};
+use lumen_import::*;
+use lumen_import::probe::Lumen;
+use std::time::Instant;
+
+fn gca() -> Option<(Mesh, Centerline)> {
+    match lumen_scene::gca::paths(None) {
+        Ok((m, c)) => {
+            let t0 = Instant::now();
+            let loaded = (load_mesh(m).unwrap(), load_centerline_csv(c).unwrap());
+            eprintln!("loaded in {:?}", t0.elapsed());
+            Some(loaded)
+        }
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            None
+        }
+    }
+}
+
+#[test]
+fn real_colon_imports_with_plausible_numbers() {
+    let Some((mesh, line)) = gca() else { return };
+    eprintln!("data: {}", lumen_scene::gca::attribution());
+    assert_eq!(mesh.triangles.len(), 20_000);
+    assert_eq!(mesh.vertices.len(), 10_000);
+    assert_eq!(line.points.len(), 1375);
+    assert!((line.length() - 1248.6).abs() < 2.0, "midline {:.1} mm", line.length());
+    let t0 = Instant::now();
+    let (tube, rep) = build_tube(&mesh, &line, &ImportParams::gca()).unwrap();
+    eprintln!("built in {:?}\n{rep}", t0.elapsed());
+    assert_eq!(tube.rings(), 1249);
+    assert_eq!(rep.rays, 1249 * 32);
+    assert!(rep.oriented);
+    // The scan's median lumen radius is about 9.4 mm; inflated twice.
+    let [_, p5, med, p95, _] = rep.radius_mm;
+    assert!((med - 2.0 * 9.4).abs() < 2.0, "median radius {med:.2} mm");
+    assert!(p5 > 2.0 * 4.0 && p95 < 2.0 * 25.0, "p5 {p5:.1}, p95 {p95:.1} mm");
+    // Repairs exist (the colon touches itself) but are few.
+    assert!(rep.repaired() > 0 && rep.repaired_fraction() < 0.10, "{rep}");
+    assert_eq!(rep.kept + rep.repaired(), rep.rays);
+    assert_eq!(rep.missed + rep.from_outside + rep.neighbouring_loop + rep.outliers, rep.repaired());
+    assert_eq!(rep.interpolated + rep.clamped, rep.repaired());
+    assert_eq!(tube.first_non_star(), None);
+}
+
+#[test]
+fn scope_frames_in_the_real_colon_stay_inside_except_recorded_escapes() {
+    let Some((mesh, line)) = gca() else { return };
+    let (colon, _) = build_tube(&mesh, &line, &ImportParams::gca()).unwrap();
+    let frames: Vec<Frame> = Insertion::default().frames(&colon, 60, 700.0, 1.0, 2).collect();
+    let mut escaped = 0;
+    for f in &frames {
+        let lumen = Lumen::new(&f.colon);
+        for j in 0..f.inserted {
+            let p = lumen.locate(f.scope.points[j], (f.arc_mm[j] as usize).saturating_sub(2)).expect("inserted point in the colon");
+            if f.escaped.contains(&j) {
+                assert!(p.gap() < 0.0);
+                escaped += 1;
+            } else {
+                assert!(p.gap() > 0.0, "frame {}: point {j} outside but not recorded", f.index);
+            }
+        }
+    }
+    eprintln!("{escaped} escaped samples over {} frames", frames.len());
+}
+
+#[test]
+fn gca_paths_names_what_is_missing() {
+    use lumen_scene::gca::{attribution, default_dir, paths, CENTERLINE, MESH};
+    let d = std::env::temp_dir().join(format!("lumen-scene-{}-gca", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let err = paths(Some(&d)).unwrap_err().to_string();
+    assert!(err.contains(MESH) && err.contains(CENTERLINE) && err.contains(&d.canonicalize().unwrap().display().to_string()), "{err}");
+    std::fs::write(d.join(MESH), "").unwrap();
+    let err = paths(Some(&d)).unwrap_err().to_string();
+    assert!(!err.contains(MESH) && err.contains(CENTERLINE), "{err}");
+    std::fs::write(d.join(CENTERLINE), "").unwrap();
+    assert_eq!(paths(Some(&d)).unwrap(), (d.join(MESH), d.join(CENTERLINE)));
+    assert!(default_dir().ends_with("shared/data/colon-gca00090"));
+    assert!(attribution().contains("CC BY 4.0") && attribution().contains("doi:10.1186/s12911-023-02111-9"));
+}

@@ -1,0 +1,24 @@
+//! The daemon's one error type.
+
+use crate::config::ConfigError;
+use lumen_transport::TransportError;
+
+/// Why the daemon, one of its transports or one of its sessions could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    /// The configuration is not usable.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// iceoryx2 or zenoh failed.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// A session's spec was refused by the pipeline (it was validated when it opened).
+    #[error("the session's scene: {0}")]
+    Spec(#[from] lumen_proto::SpecError),
+    /// A thread could not be started.
+    #[error("starting the {thread} thread: {source}")]
+    Spawn { thread: String, source: std::io::Error },
+    /// A thread stopped before it reported that it serves.
+    #[error("the {0} thread stopped before it served")]
+    Stopped(String),
+}

@@ -1,0 +1,38 @@
+//! Names of the control channel and of each session's channels: iceoryx2 service names and
+//! zenoh key expressions alike (`proto/README.md` documents them for other languages).
+
+/// Root of every service name and key expression.
+pub const ROOT: &str = "lumen";
+/// The control channel: iceoryx2 request-response service name and zenoh key expression.
+pub const CONTROL: &str = "lumen/control";
+/// Zenoh liveliness token the daemon holds while it runs.
+pub const DAEMON_ALIVE: &str = "lumen/daemon";
+
+/// Name of session `id`'s frame channel (iceoryx2 publish-subscribe + event service of the same
+/// name, or zenoh key).
+pub fn frame_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/frame")
+}
+
+/// Name of session `id`'s contacts channel (iceoryx2 publish-subscribe + event, or zenoh key).
+pub fn contacts_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/contacts")
+}
+
+/// Zenoh liveliness key the client of session `id` must hold while it lives.
+pub fn client_alive_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/client")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_the_documented_strings() {
+        assert_eq!(frame_name(42), "lumen/session/42/frame");
+        assert_eq!(contacts_name(42), "lumen/session/42/contacts");
+        assert_eq!(client_alive_name(42), "lumen/session/42/client");
+        assert_eq!((CONTROL, DAEMON_ALIVE), ("lumen/control", "lumen/daemon"));
+    }
+}

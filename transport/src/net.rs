@@ -1,0 +1,33 @@
+//! zenoh across machines: the configuration both sides start from, and the queue depths and
+//! congestion control of a session's keys.
+
+use crate::TransportError;
+use zenoh::qos::CongestionControl;
+
+/// Frames the daemon keeps per session before the newest replaces the oldest.
+pub const FRAME_QUEUE: usize = 1;
+/// Replies a client keeps before the newest replaces the oldest.
+pub const CONTACTS_QUEUE: usize = 8;
+/// Samples an observer keeps (frames and replies together) before the newest wins.
+pub const OBSERVER_QUEUE: usize = 16;
+/// Frames and replies block rather than drop when the link is congested: a frame lost on the
+/// way would leave its client waiting for a reply that never comes.
+pub const CONGESTION: CongestionControl = CongestionControl::Block;
+
+/// A zenoh configuration: `mode` (`client`, `peer` or `router`), no multicast scouting or
+/// gossip, the given endpoints to listen on and to connect to.
+pub fn config(mode: &str, listen: &[String], connect: &[String]) -> Result<zenoh::Config, TransportError> {
+    let mut c = zenoh::Config::default();
+    let set = |c: &mut zenoh::Config, k: &str, v: String| c.insert_json5(k, &v).map_err(|e| TransportError::zenoh(format!("config {k} = {v}"), e));
+    set(&mut c, "mode", format!("{mode:?}"))?;
+    set(&mut c, "scouting/multicast/enabled", "false".into())?;
+    set(&mut c, "scouting/gossip/enabled", "false".into())?;
+    set(&mut c, "listen/endpoints", serde_json::to_string(listen).expect("strings serialise"))?;
+    set(&mut c, "connect/endpoints", serde_json::to_string(connect).expect("strings serialise"))?;
+    Ok(c)
+}
+
+/// Sets one configuration key of `config` to the JSON5 `value`.
+pub fn set(config: &mut zenoh::Config, key: &str, value: &str) -> Result<(), TransportError> {
+    config.insert_json5(key, value).map_err(|e| TransportError::zenoh(format!("config {key} = {value}"), e))
+}
