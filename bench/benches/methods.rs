@@ -3,7 +3,7 @@
 //! per frame, the wall deformed where it presses. Each iteration detects the next frame of the
 //! sequence, so the default method's coherence is exercised as in a simulation.
 //!
-//! `cargo bench -p lumen-detect --bench methods`
+//! `cargo bench -p lumen-bench --bench methods`
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use lumen_detect::{ContactKind, Detector, Method, Scene};

@@ -4,7 +4,7 @@
 //! `lumen bench detect` would spend its time on the reference:
 //!
 //! ```sh
-//! cargo build --release -p lumen-detect --example frames
+//! cargo build --release -p lumen-bench --example frames
 //! target/release/examples/frames 4 30                    # precision x, passes over 64 frames
 //! target/release/examples/frames 4 30 nearest            # or refined: the spec's settings
 //! valgrind --tool=callgrind --toggle-collect='*detect_prevalidated*' target/release/examples/frames 4 3
