@@ -68,13 +68,8 @@ pub const GCA_INFLATE: f32 = 2.0;
 /// Its midline bends tighter than its inflated lumen is wide at the flexures, so ring planes that
 /// follow the tangent closely cross inside the lumen there, and the scope's samples are then
 /// measured against sections they are not in. Smoother tangents tilt the rings so they cross
-/// less, at the price of planes that cut neighbouring loops of the colon (repaired rays). Rings
-/// in bends tighter than the lumen / rays hitting a neighbouring loop, at sigma 4, 12, 20, 24,
-/// 28 mm: 523 / 511, 264 / 219, 142 / 252, 116 / 413, 86 / 720. In the scripted colonoscopy
-/// (`lumen-sim-run --scene gca`, 3,000 frames) sigma 4 let up to 188 samples escape and 24 none
-/// (max penetration 4.4 mm), also inflated 1.8 or 2.2 times. This is a measured island, not a
-/// cure: sigma 20, 22, 26 and 28 let samples escape at one inflation or more of 1.8, 2.0, 2.2,
-/// because some flexures stay tighter than the lumen whatever the smoothing (86 rings at 28 mm).
+/// less, at the price of planes that cut neighbouring loops of the colon (repaired rays). The
+/// value is a measured island, not a cure: `docs/decisions/import.md` has the sweep.
 pub const GCA_TANGENT_SMOOTHING_MM: f32 = 24.0;
 
 /// A ray whose hit is kept is never repaired; every other ray is counted here by why it was

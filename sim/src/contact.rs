@@ -144,7 +144,7 @@ impl ContactSet {
     /// that their slab reaches behind the anus) are not answered, except within the scope's
     /// radius of the plane, where the sample's surface is in the body. Unanswered there, a
     /// sample entering the body could already be a millimetre into the wall by the frame it
-    /// crosses the plane (measured on the GCA colon inflated 2.2: 1.17 mm; answered, 0.68 mm).
+    /// crosses the plane (`docs/decisions/sim.md`).
     pub fn set_body_entry(&mut self, origin: V3, dir: V3, radius_mm: f64) {
         self.entry = Some((origin, dir, radius_mm));
     }

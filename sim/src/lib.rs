@@ -29,10 +29,8 @@
 //!   runs on).
 //!
 //! **Time and rate.** A frame is 1 ms of simulated time (the 1 kHz of a haptic loop) in 16
-//! XPBD substeps; the default script ([`Script::colonoscopy`]) is 3 s, 3,000 frames. On the
-//! full generated colon a frame costs about 0.4 ms of physics and 0.3 ms of detection on the
-//! development machine (over 1,000 frames/s; see `tests/physics.rs` and the
-//! `lumen-sim-run` binary). `lumen sim` runs it as its own process against the daemon
+//! XPBD substeps; the default script ([`Script::colonoscopy`]) is 3 s, 3,000 frames (what a
+//! frame costs: `docs/measurements.md`). `lumen sim` runs it as its own process against the daemon
 //! ([`daemon::DaemonSource`]) and `lumen demo` runs daemon, physics and recorder together.
 //!
 //! ```no_run

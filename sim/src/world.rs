@@ -4,8 +4,7 @@
 //!
 //! **Time.** A frame is a fixed [`SimParams::dt_s`] of simulated time (default 1 ms: the 1 kHz
 //! of a haptic loop), solved in [`SimParams::substeps`] XPBD substeps (default 16, `h` =
-//! 62.5 us). At 500+ frames per second of wall time the simulation runs at half real time or
-//! better; the operator's script is written in simulated seconds.
+//! 62.5 us); the operator's script is written in simulated seconds.
 //!
 //! **One frame** ([`World::step`]):
 //! 1. the operator gives the frame's drive (handle target, force limit, roll, angulation, tip

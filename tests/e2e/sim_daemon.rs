@@ -72,6 +72,6 @@ fn lumen_sim_without_a_daemon_says_to_start_one() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "lumen sim succeeded without a daemon");
     assert!(stderr.contains("lumen serve"), "{stderr}");
-    lumen_client::local::remove_prefix(&prefix);
+    lumen_transport::shm::remove_prefix(&prefix);
     assert!(lumen_e2e::shm_files(&prefix).is_empty());
 }
