@@ -21,65 +21,71 @@ fn root() -> PathBuf {
 }
 
 /// The workspace as cargo sees it: each member's name, folder (relative to the root) and
-/// direct dependencies with their kinds (`normal`, `dev`, `build`), plus every package's
-/// resolved normal dependencies by name.
+/// direct dependencies with their kinds (`normal`, `dev`, `build`), from `cargo metadata
+/// --no-deps`; and every package's resolved dependencies from `Cargo.lock` (a running
+/// `cargo test` holds the package cache, so a resolving `cargo metadata` would wait on it).
 struct Workspace {
     folders: BTreeMap<String, String>,
     /// member -> (dependency name, kind)
     direct: BTreeMap<String, Vec<(String, String)>>,
-    /// any package name -> names of its resolved normal and build dependencies
-    resolved: BTreeMap<String, BTreeSet<String>>,
+    /// any package name -> names of its locked dependencies (every kind; see `closure`)
+    locked: BTreeMap<String, BTreeSet<String>>,
 }
 
 fn workspace() -> Workspace {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
-        .args(["metadata", "--format-version", "1", "--offline", "--manifest-path"])
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline", "--manifest-path"])
         .arg(root().join("Cargo.toml"))
         .output()
         .expect("running cargo metadata");
     assert!(out.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&out.stderr));
     let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
-    let members: BTreeSet<&str> = meta["workspace_members"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
-    let mut names = BTreeMap::new();
     let mut folders = BTreeMap::new();
     let mut direct = BTreeMap::new();
     for p in meta["packages"].as_array().unwrap() {
-        let (id, name) = (p["id"].as_str().unwrap(), p["name"].as_str().unwrap().to_owned());
-        names.insert(id.to_owned(), name.clone());
-        if !members.contains(id) {
-            continue;
-        }
+        let name = p["name"].as_str().unwrap().to_owned();
         let manifest = Path::new(p["manifest_path"].as_str().unwrap());
         let folder = manifest.parent().unwrap().strip_prefix(root()).unwrap().to_string_lossy().into_owned();
         folders.insert(name.clone(), folder);
         let deps = p["dependencies"].as_array().unwrap().iter().map(|d| (d["name"].as_str().unwrap().to_owned(), d["kind"].as_str().unwrap_or("normal").to_owned())).collect();
         direct.insert(name, deps);
     }
-    let mut resolved = BTreeMap::new();
-    for n in meta["resolve"]["nodes"].as_array().unwrap() {
-        let name = names[n["id"].as_str().unwrap()].clone();
-        let deps: BTreeSet<String> = n["deps"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter(|d| d["dep_kinds"].as_array().unwrap().iter().any(|k| k["kind"].as_str().unwrap_or("normal") != "dev"))
-            .map(|d| names[d["pkg"].as_str().unwrap()].clone())
-            .collect();
-        resolved.entry(name).or_insert_with(BTreeSet::new).extend(deps);
+    Workspace { folders, direct, locked: lock_graph() }
+}
+
+/// `Cargo.lock`'s graph: each package's name and the names of the packages it depends on.
+fn lock_graph() -> BTreeMap<String, BTreeSet<String>> {
+    let lock = std::fs::read_to_string(root().join("Cargo.lock")).expect("Cargo.lock");
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for package in lock.split("[[package]]").skip(1) {
+        let name = package.lines().find_map(|l| l.strip_prefix("name = ")).expect("a package name").trim_matches('"').to_owned();
+        let deps: BTreeSet<String> = match package.split("dependencies = [").nth(1) {
+            // Entries are "name" or "name version" (when two versions are locked).
+            Some(list) => list.split(']').next().unwrap().lines().map(|l| l.trim().trim_end_matches(',').trim_matches('"')).filter(|l| !l.is_empty()).map(|l| l.split(' ').next().unwrap().to_owned()).collect(),
+            None => BTreeSet::new(),
+        };
+        graph.entry(name).or_default().extend(deps);
     }
-    Workspace { folders, direct, resolved }
+    graph
 }
 
 impl Workspace {
-    /// Every package `name` pulls in through normal and build dependencies.
+    /// Every package `name` pulls in when built as a library: its own normal and build
+    /// dependencies, then everything those lock in (the lock file does not say which edges of
+    /// a third-party crate are dev-only, and a published crate's dev-dependencies are not in
+    /// it; the workspace's members are followed by their normal and build edges alone).
     fn closure(&self, name: &str) -> BTreeSet<String> {
         let mut seen = BTreeSet::new();
         let mut todo = vec![name.to_owned()];
         while let Some(n) = todo.pop() {
-            for d in self.resolved.get(&n).into_iter().flatten() {
+            let next: Vec<String> = match self.direct.get(&n) {
+                Some(deps) => deps.iter().filter(|(_, kind)| kind != "dev").map(|(d, _)| d.clone()).collect(),
+                None => self.locked.get(&n).into_iter().flatten().cloned().collect(),
+            };
+            for d in next {
                 if seen.insert(d.clone()) {
-                    todo.push(d.clone());
+                    todo.push(d);
                 }
             }
         }
