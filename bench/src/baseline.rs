@@ -111,18 +111,18 @@ impl ParryBaseline {
     /// The baseline for `spec` (its first tube and first rod; precision, alpha and margin from
     /// the spec, the margin as parry's prediction distance), with the wall taken from `state`
     /// (any valid frame: the mesh is rewritten every frame). The rod must have one radius.
-    pub fn new(spec: &SceneSpec, state: &[f32], shape: ParryShape) -> Result<Self, String> {
+    pub fn new(spec: &SceneSpec, state: &[f32], shape: ParryShape) -> Result<Self, crate::Error> {
         use lumen_detect::proto::Shape;
         let layout = StateLayout::of(spec);
         if state.len() != layout.floats {
-            return Err(format!("state of {} floats, the spec needs {}", state.len(), layout.floats));
+            return Err(crate::Error::BaselineState { got: state.len(), expected: layout.floats });
         }
-        let tube = spec.bodies.iter().position(|b| matches!(b.shape, Shape::Tube { .. })).ok_or("the scene has no tube")?;
-        let rod = spec.bodies.iter().position(|b| matches!(b.shape, Shape::Rod { .. })).ok_or("the scene has no rod")?;
+        let tube = spec.bodies.iter().position(|b| matches!(b.shape, Shape::Tube { .. })).ok_or(crate::Error::NoTube)?;
+        let rod = spec.bodies.iter().position(|b| matches!(b.shape, Shape::Rod { .. })).ok_or(crate::Error::NoRod)?;
         let Shape::Rod { radius, .. } = &spec.bodies[rod].shape else { unreachable!() };
         let radius = match radius.as_slice() {
             [r] => *r,
-            _ => return Err("the parry baseline takes a rod with one radius".into()),
+            r => return Err(crate::Error::RodRadii { radii: r.len() }),
         };
         let (lt, lr) = (layout.bodies[tube], layout.bodies[rod]);
         let (rings, spokes) = (lt.points, lt.spokes);
@@ -137,7 +137,7 @@ impl ParryBaseline {
         }
         let mut vertices = vec![Vector::ZERO; rings * spokes];
         write_tips(&state[lt.offset..], rings, spokes, &mut vertices);
-        let mesh = TriMesh::with_flags(vertices, indices, TriMeshFlags::DEFORMABLE).map_err(|e| format!("parry TriMesh: {e:?}"))?;
+        let mesh = TriMesh::with_flags(vertices, indices, TriMeshFlags::DEFORMABLE)?;
         let n = (lr.points - 1) * spec.precision as usize + 1;
         Ok(Self {
             mesh,

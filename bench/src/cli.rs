@@ -75,8 +75,8 @@ pub struct DetectArgs {
     pub replot: Option<PathBuf>,
 }
 
-fn parse_method(s: &str) -> Result<MethodKind, String> {
-    MethodKind::parse(s.trim()).ok_or_else(|| format!("unknown method {s:?} (default, refined, nearest, thesis or parry)"))
+fn parse_method(s: &str) -> Result<MethodKind, Error> {
+    MethodKind::parse(s.trim()).ok_or_else(|| Error::UnknownMethod { name: s.to_owned() })
 }
 
 impl DetectArgs {
@@ -121,7 +121,7 @@ impl DetectArgs {
     /// rows at the default precision and spokes on stderr.
     pub fn run(&self) -> Result<Report, Error> {
         if let Some(dir) = &self.replot {
-            let text = std::fs::read_to_string(dir.join("report.json")).map_err(|e| Error::Io(format!("{}: {e}", dir.join("report.json").display())))?;
+            let text = std::fs::read_to_string(dir.join("report.json")).map_err(|source| Error::Read { path: dir.join("report.json"), source })?;
             let report = Report::from_json(&text)?;
             report.write(dir)?;
             eprintln!("rewrote {}/report.md and speed_vs_error.svg", dir.display());

@@ -44,34 +44,81 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// What can stop a sweep.
-#[derive(Debug)]
+/// What can stop a sweep, or writing its report: the crate's one error type. Every variant
+/// keeps its source where there is one.
+#[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// Bad options (the message says which).
-    Options(String),
-    /// A scene could not be built or run.
-    Scene(String),
-    /// Every requested scene was skipped (the messages say why).
+    /// A flag's value is not one of those allowed (`--scene liver`, `--methods bullet`).
+    #[error("bad options: {flag} {value}: expected {expected}")]
+    BadFlag { flag: &'static str, value: String, expected: &'static str },
+    /// `--methods` names no method.
+    #[error("unknown method {name:?} (default, refined, nearest, thesis or parry)")]
+    UnknownMethod { name: String },
+    /// A list of the sweep is empty.
+    #[error("bad options: scenes, methods, precisions and spokes must not be empty")]
+    EmptySweep,
+    /// A precision does not divide [`metrics::DENSE_PER_SEGMENT`].
+    #[error("bad options: precisions must divide 64 (1, 2, 4, 8, 16, 32 or 64)")]
+    Precision { x: u32 },
+    /// A spoke count out of range.
+    #[error("bad options: spokes must be in 3..=256")]
+    Spokes { spokes: usize },
+    /// No frame would be timed.
+    #[error("bad options: frames must exceed warmup")]
+    Frames { frames: usize, warmup: usize },
+    /// A negative or non-finite contact margin.
+    #[error("bad options: margin must be finite and >= 0")]
+    Margin { margin: f32 },
+    /// The real colon was asked for but not loaded.
+    #[error("scene: the GCA colon is not loaded")]
+    GcaNotLoaded,
+    /// The real colon's tube could not be built.
+    #[error("scene: gca import: {0}")]
+    GcaImport(#[source] lumen_import::ImportError),
+    /// A frame of the insertion is not a valid state of its scene.
+    #[error("scene: {scene} frame {frame}: {source}")]
+    Frame { scene: &'static str, frame: usize, source: lumen_detect::proto::InputError },
+    /// The insertion produced no frame.
+    #[error("scene: no frames")]
+    NoFrames,
+    /// A detector refused the scene's spec.
+    #[error("scene: {0}")]
+    Spec(#[from] lumen_detect::proto::SpecError),
+    /// A detector refused a frame.
+    #[error("scene: {0}")]
+    Detect(#[source] lumen_detect::proto::InputError),
+    /// The parry baseline was given a state of the wrong length.
+    #[error("scene: state of {got} floats, the spec needs {expected}")]
+    BaselineState { got: usize, expected: usize },
+    /// The parry baseline needs a tube...
+    #[error("scene: the scene has no tube")]
+    NoTube,
+    /// ...and a rod...
+    #[error("scene: the scene has no rod")]
+    NoRod,
+    /// ...of one radius.
+    #[error("scene: the parry baseline takes a rod with one radius")]
+    RodRadii { radii: usize },
+    /// parry refused the wall's mesh.
+    #[error("scene: parry TriMesh: {0}")]
+    TriMesh(#[from] parry3d::shape::TriMeshBuilderError),
+    /// Every requested scene was skipped (the messages say why; they are also the report's
+    /// [`Report::skipped`]).
+    #[error("no scene could run: {}", .0.join("; "))]
     NoScenes(Vec<String>),
-    /// Writing the report.
-    Io(String),
+    /// Writing a file of the report.
+    #[error("writing the report: {}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    /// Reading the `report.json` to replot.
+    #[error("reading {}: {source}", path.display())]
+    Read { path: PathBuf, source: std::io::Error },
+    /// A `report.json` that does not parse.
+    #[error("reading report.json: {0}")]
+    ReportJson(#[from] serde_json::Error),
     /// Drawing the plot.
-    Plot(String),
+    #[error("drawing the plot: {0}")]
+    Plot(#[from] plotters::drawing::DrawingAreaErrorKind<std::io::Error>),
 }
-
-impl std::fmt::Display for Error {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Error::Options(m) => write!(f, "bad options: {m}"),
-            Error::Scene(m) => write!(f, "scene: {m}"),
-            Error::NoScenes(why) => write!(f, "no scene could run: {}", why.join("; ")),
-            Error::Io(m) => write!(f, "writing the report: {m}"),
-            Error::Plot(m) => write!(f, "drawing the plot: {m}"),
-        }
-    }
-}
-
-impl std::error::Error for Error {}
 
 /// A compared method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -241,7 +288,7 @@ impl Options {
             "gca" => vec![ColonKind::Gca],
             "generated" => vec![ColonKind::Generated],
             "all" => vec![ColonKind::Generated, ColonKind::Gca],
-            other => return Err(Error::Options(format!("--scene {other}: expected gca, generated or all"))),
+            other => return Err(Error::BadFlag { flag: "--scene", value: other.to_owned(), expected: "gca, generated or all" }),
         };
         Ok(())
     }
@@ -257,21 +304,20 @@ impl Options {
     }
 
     fn check(&self) -> Result<(), Error> {
-        let bad = |m: &str| Err(Error::Options(m.into()));
         if self.scenes.is_empty() || self.methods.is_empty() || self.precisions.is_empty() || self.spokes.is_empty() {
-            return bad("scenes, methods, precisions and spokes must not be empty");
+            return Err(Error::EmptySweep);
         }
-        if self.precisions.iter().any(|&x| !(1..=64).contains(&x) || !metrics::DENSE_PER_SEGMENT.is_multiple_of(x as usize)) {
-            return bad("precisions must divide 64 (1, 2, 4, 8, 16, 32 or 64)");
+        if let Some(&x) = self.precisions.iter().find(|&&x| !(1..=64).contains(&x) || !metrics::DENSE_PER_SEGMENT.is_multiple_of(x as usize)) {
+            return Err(Error::Precision { x });
         }
-        if self.spokes.iter().any(|&b| !(3..=256).contains(&b)) {
-            return bad("spokes must be in 3..=256");
+        if let Some(&spokes) = self.spokes.iter().find(|&&b| !(3..=256).contains(&b)) {
+            return Err(Error::Spokes { spokes });
         }
         if self.frames <= self.warmup {
-            return bad("frames must exceed warmup");
+            return Err(Error::Frames { frames: self.frames, warmup: self.warmup });
         }
         if !(self.margin >= 0.0 && self.margin.is_finite()) {
-            return bad("margin must be finite and >= 0");
+            return Err(Error::Margin { margin: self.margin });
         }
         Ok(())
     }

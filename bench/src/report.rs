@@ -457,8 +457,7 @@ impl Report {
         let mut out = String::new();
         {
             let root = SVGBackend::with_string(&mut out, (620 * panels as u32, 600)).into_drawing_area();
-            let pe = |e: &dyn std::fmt::Display| Error::Plot(e.to_string());
-            root.fill(&WHITE).map_err(|e| pe(&e))?;
+            root.fill(&WHITE)?;
             let title = format!(
                 "Lumen collision methods: speed against error ({}, rev {}, {})",
                 if self.quick { "quick sweep" } else { "full sweep" },
@@ -466,12 +465,12 @@ impl Report {
                 self.machine.cpu
             );
             let (top, rest) = root.split_vertically(40);
-            top.draw(&Text::new(title, (12, 12), ("sans-serif", 18).into_font())).map_err(|e| pe(&e))?;
+            top.draw(&Text::new(title, (12, 12), ("sans-serif", 18).into_font()))?;
             let (body, foot) = rest.split_vertically(540);
             if self.attribution.is_empty() {
-                foot.draw(&Text::new("Lower left is better; the Pareto front is the lower-left envelope.".to_string(), (12, 2), ("sans-serif", 13).into_font())).map_err(|e| pe(&e))?;
+                foot.draw(&Text::new("Lower left is better; the Pareto front is the lower-left envelope.".to_string(), (12, 2), ("sans-serif", 13).into_font()))?;
             } else {
-                foot.draw(&Text::new(format!("Lower left is better. gca: {}", self.attribution.join("; ")), (12, 2), ("sans-serif", 12).into_font())).map_err(|e| pe(&e))?;
+                foot.draw(&Text::new(format!("Lower left is better. gca: {}", self.attribution.join("; ")), (12, 2), ("sans-serif", 12).into_font()))?;
             }
             let areas = body.split_evenly((1, panels));
             const FLOOR: f64 = 1e-4;
@@ -509,7 +508,7 @@ impl Report {
                     .x_label_area_size(40)
                     .y_label_area_size(64)
                     .build_cartesian_2d(x0..x1, y0..y1)
-                    .map_err(|e| pe(&e))?;
+                    ?;
                 chart
                     .configure_mesh()
                     .x_desc("time per frame, median (us, log)")
@@ -519,13 +518,13 @@ impl Report {
                     .x_label_formatter(&|v| short(10f64.powf(*v)))
                     .y_label_formatter(&|v| short(10f64.powf(*v)))
                     .draw()
-                    .map_err(|e| pe(&e))?;
+                    ?;
                 // The 0.05 mm target.
                 let target = 0.05f64.log10();
                 if target > y0 && target < y1 {
                     chart
                         .draw_series(LineSeries::new(vec![(x0, target), (x1, target)], RGBColor(150, 150, 150).stroke_width(1)))
-                        .map_err(|e| pe(&e))?
+                        ?
                         .label("0.05 mm target")
                         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], RGBColor(150, 150, 150)));
                 }
@@ -539,7 +538,7 @@ impl Report {
                     line.sort_by(|a, b| a.0.total_cmp(&b.0));
                     chart
                         .draw_series(LineSeries::new(line, c.stroke_width(2)))
-                        .map_err(|e| pe(&e))?
+                        ?
                         .label(format!("{m} (line: B = {})", self.default_spokes))
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
                     chart
@@ -547,10 +546,10 @@ impl Report {
                             let filled = p.0.spokes == self.default_spokes;
                             Circle::new((p.1, p.2), 4, if filled { c.filled() } else { c.stroke_width(1) })
                         }))
-                        .map_err(|e| pe(&e))?;
+                        ?;
                     chart
                         .draw_series(mine.iter().map(|p| Text::new(format!("x{} B{}", p.0.x, p.0.spokes), (p.1, p.2), ("sans-serif", 10).into_font().color(&c))))
-                        .map_err(|e| pe(&e))?;
+                        ?;
                 }
                 // Pareto front over every configuration of the scene.
                 let mut sorted: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
@@ -565,7 +564,7 @@ impl Report {
                 }
                 chart
                     .draw_series(DashedLineSeries::new(front, 6, 4, BLACK.stroke_width(1)))
-                    .map_err(|e| pe(&e))?
+                    ?
                     .label("Pareto front")
                     .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
                 chart
@@ -575,16 +574,16 @@ impl Report {
                     .border_style(BLACK)
                     .label_font(("sans-serif", 12))
                     .draw()
-                    .map_err(|e| pe(&e))?;
+                    ?;
             }
-            root.present().map_err(|e| pe(&e))?;
+            root.present()?;
         }
         Ok(out)
     }
 
     /// A report read back from its `report.json`.
     pub fn from_json(text: &str) -> Result<Self, Error> {
-        serde_json::from_str(text).map_err(|e| Error::Io(format!("report.json: {e}")))
+        Ok(serde_json::from_str(text)?)
     }
 
     /// `report.json`.
@@ -595,7 +594,7 @@ impl Report {
     /// Writes `dir/report.md`, `dir/report.json` and `dir/speed_vs_error.svg`, creating `dir`.
     pub fn write(&self, dir: impl AsRef<Path>) -> Result<(), Error> {
         let dir = dir.as_ref();
-        let io = |p: &Path, e: std::io::Error| Error::Io(format!("{}: {e}", p.display()));
+        let io = |p: &Path, source: std::io::Error| Error::Io { path: p.to_owned(), source };
         std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
         for (name, text) in [("report.md", self.markdown()), ("report.json", self.json()), ("speed_vs_error.svg", self.svg()?)] {
             let p = dir.join(name);

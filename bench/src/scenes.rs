@@ -73,9 +73,9 @@ pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
             Ok((generate(&p), None))
         }
         ColonKind::Gca => {
-            let g = gca.ok_or_else(|| Error::Scene("the GCA colon is not loaded".into()))?;
+            let g = gca.ok_or(Error::GcaNotLoaded)?;
             let p = ImportParams { spokes, ring_spacing: spacing, ..ImportParams::gca() };
-            let (tube, rep) = g.tube(&p).map_err(|e| Error::Scene(format!("gca import: {e}")))?;
+            let (tube, rep) = g.tube(&p).map_err(Error::GcaImport)?;
             Ok((tube, Some(rep.to_string())))
         }
     }
@@ -131,7 +131,7 @@ pub fn build(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
         });
         // Every frame is validated once here, as the daemon validates frames on receipt; the
         // detectors are then timed on `detect_prevalidated`.
-        lumen_detect::proto::StateLayout::of(sp).check(sp, &state).map_err(|e| Error::Scene(format!("{} frame {}: {e}", kind.name(), f.index)))?;
+        lumen_detect::proto::StateLayout::of(sp).check(sp, &state).map_err(|source| Error::Frame { scene: kind.name(), frame: f.index, source })?;
         floats = state.len();
         states.extend_from_slice(&state);
         if keep_eval && is_eval(f.index, escaped, opts.eval_every, opts.eval_escapes_every) {
@@ -141,7 +141,7 @@ pub fn build(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
             eval.push(EvalFrame { index: f.index, colon, scope, inserted: f.inserted, escaped: f.escaped, arc_mm });
         }
     }
-    let spec = spec.ok_or_else(|| Error::Scene("no frames".into()))?;
+    let spec = spec.ok_or(Error::NoFrames)?;
     Ok(SceneData {
         kind,
         spokes,

@@ -58,9 +58,9 @@ pub fn spec_for(scene: &SceneData, x: u32, method: MethodKind) -> SceneSpec {
 pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: &mut Vec<f32>, mut record: Option<&mut Vec<Vec<Reported>>>) -> Result<Timing, Error> {
     let spec = spec_for(scene, x, method);
     let mut runner = match method {
-        MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape).map_err(Error::Scene)?),
+        MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape)?),
         _ => {
-            let mut d = Detector::new(&spec).map_err(|e| Error::Scene(e.to_string()))?;
+            let mut d = Detector::new(&spec)?;
             if matches!(method, MethodKind::Default | MethodKind::Nearest) {
                 d.set_refine(opts.refine);
             }
@@ -77,7 +77,7 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
         let (dt, n) = match &mut runner {
             Runner::Detector(d) => {
                 let t0 = Instant::now();
-                let n = d.detect_prevalidated(buf).map_err(|e| Error::Scene(e.to_string()))?.len();
+                let n = d.detect_prevalidated(buf).map_err(Error::Detect)?.len();
                 (t0.elapsed(), n)
             }
             Runner::Parry(p) => {

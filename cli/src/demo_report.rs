@@ -5,6 +5,7 @@
 //! **Units**: microseconds of wall time, millimetres.
 
 use crate::commands::transport::TransportArg;
+use crate::error::{CliError, CliResult};
 use crate::figures::{FrameRow, RunFigures};
 use plotters::prelude::*;
 use serde::Serialize;
@@ -159,18 +160,20 @@ impl Summary {
 }
 
 /// Writes `summary.json`, `report.md` and the plots of `rows` into `dir`.
-pub fn write(dir: &Path, summary: &Summary, rows: &[FrameRow]) -> Result<(), Box<dyn std::error::Error>> {
-    std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(summary)? + "\n")?;
-    std::fs::write(dir.join("report.md"), summary.markdown())?;
+pub fn write(dir: &Path, summary: &Summary, rows: &[FrameRow]) -> CliResult {
+    let write = |name: &str, text: String| std::fs::write(dir.join(name), text).map_err(|source| CliError::Write { path: dir.join(name), source });
+    write("summary.json", serde_json::to_string_pretty(summary)? + "\n")?;
+    write("report.md", summary.markdown())?;
     let title = format!("{} colon over {}", summary.scene, summary.transport);
-    std::fs::write(dir.join(PLOTS[0].0), time_per_frame(rows, &title)?)?;
-    std::fs::write(dir.join(PLOTS[1].0), contacts_per_frame(rows, &title)?)?;
-    std::fs::write(dir.join(PLOTS[2].0), time_vs_contacts(rows, &title)?)?;
+    write(PLOTS[0].0, time_per_frame(rows, &title)?)?;
+    write(PLOTS[1].0, contacts_per_frame(rows, &title)?)?;
+    write(PLOTS[2].0, time_vs_contacts(rows, &title)?)?;
     Ok(())
 }
 
-fn pe(e: impl std::fmt::Display) -> String {
-    format!("plotting: {e}")
+/// The error of drawing `plot` (a file name of [`PLOTS`]).
+fn plot_error(plot: &'static str) -> impl Fn(plotters::drawing::DrawingAreaErrorKind<std::io::Error>) -> CliError + Copy {
+    move |source| CliError::Plot { plot, source }
 }
 
 const SIZE: (u32, u32) = (900, 480);
@@ -207,7 +210,8 @@ fn frames_axis(rows: &[FrameRow]) -> std::ops::Range<u64> {
 }
 
 /// Physics time and round trip against frame number.
-pub fn time_per_frame(rows: &[FrameRow], title: &str) -> Result<String, String> {
+pub fn time_per_frame(rows: &[FrameRow], title: &str) -> CliResult<String> {
+    let pe = plot_error(PLOTS[0].0);
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
@@ -230,7 +234,8 @@ pub fn time_per_frame(rows: &[FrameRow], title: &str) -> Result<String, String> 
 }
 
 /// Contacts against frame number.
-pub fn contacts_per_frame(rows: &[FrameRow], title: &str) -> Result<String, String> {
+pub fn contacts_per_frame(rows: &[FrameRow], title: &str) -> CliResult<String> {
+    let pe = plot_error(PLOTS[1].0);
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
@@ -251,7 +256,8 @@ pub fn contacts_per_frame(rows: &[FrameRow], title: &str) -> Result<String, Stri
 }
 
 /// Round trip and physics time of each frame against its contacts.
-pub fn time_vs_contacts(rows: &[FrameRow], title: &str) -> Result<String, String> {
+pub fn time_vs_contacts(rows: &[FrameRow], title: &str) -> CliResult<String> {
+    let pe = plot_error(PLOTS[2].0);
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();

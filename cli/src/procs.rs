@@ -2,6 +2,7 @@
 //! blocks them to take them in its own loop, and a blocked mask survives `exec`), their stdout
 //! read line by line on a channel, stopped with a signal and reaped.
 
+use crate::error::{CliError, CliResult};
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::process::CommandExt;
 use std::process::{Child, Command, ExitStatus, Stdio};
@@ -30,7 +31,7 @@ pub struct Proc {
 
 impl Proc {
     /// Spawns `cmd` (stdout and stdin piped, stderr inherited).
-    pub fn spawn(name: &'static str, mut cmd: Command) -> Result<Self, String> {
+    pub fn spawn(name: &'static str, mut cmd: Command) -> CliResult<Self> {
         cmd.stdout(Stdio::piped()).stderr(Stdio::inherit()).stdin(Stdio::piped());
         // SAFETY: between fork and exec only async-signal-safe calls (sigemptyset, sigaddset,
         // pthread_sigmask) on a local set.
@@ -44,7 +45,7 @@ impl Proc {
                 Ok(())
             });
         }
-        let mut child = cmd.spawn().map_err(|e| format!("starting the {name}: {e}"))?;
+        let mut child = cmd.spawn().map_err(|source| CliError::Spawn { name, source })?;
         let stdout = child.stdout.take().expect("piped");
         let (tx, lines) = mpsc::channel();
         std::thread::spawn(move || {
@@ -72,9 +73,10 @@ impl Proc {
     }
 
     /// Writes `line` and a newline to its stdin.
-    pub fn send_line(&mut self, line: &str) -> Result<(), String> {
-        let stdin = self.child.stdin.as_mut().ok_or_else(|| format!("the {}'s stdin is closed", self.name))?;
-        writeln!(stdin, "{line}").and_then(|()| stdin.flush()).map_err(|e| format!("writing to the {}: {e}", self.name))
+    pub fn send_line(&mut self, line: &str) -> CliResult {
+        let name = self.name;
+        let stdin = self.child.stdin.as_mut().ok_or(CliError::StdinClosed { name })?;
+        writeln!(stdin, "{line}").and_then(|()| stdin.flush()).map_err(|source| CliError::ChildStdin { name, source })
     }
 
     /// The exit status, if it has exited.

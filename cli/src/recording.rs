@@ -105,7 +105,72 @@ pub enum RecordingError {
     /// A valid MCAP file that is not a Lumen recording, or holds a message that is not what its
     /// topic says.
     #[error("{} is not a usable Lumen recording: {what}", path.display())]
-    NotLumen { path: PathBuf, what: String },
+    NotLumen {
+        path: PathBuf,
+        #[source]
+        what: BadMessage,
+    },
+}
+
+/// Why a file is not a usable Lumen recording (inside [`RecordingError::NotLumen`]).
+#[derive(Debug, thiserror::Error)]
+pub enum BadMessage {
+    /// No spec message at all.
+    #[error("no {SPEC_TOPIC} message (was it written by `lumen record`?)")]
+    NoSpec,
+    /// The spec message is not a scene spec.
+    #[error("its {SPEC_TOPIC} message is not a scene spec: {0}")]
+    Spec(#[source] serde_json::Error),
+    /// The summary message is not a map of counts.
+    #[error("its {SUMMARY_TOPIC} message is not a map of counts: {0}")]
+    Summary(#[source] serde_json::Error),
+    /// A frame message does not decode (`index`: its place among the frames, where counted).
+    #[error("frame message {}(sequence {sequence}): {source}", index.map_or(String::new(), |i| format!("{i} ")))]
+    Frame { index: Option<u64>, sequence: u32, source: FrameDecodeError },
+    /// A reply message does not decode.
+    #[error("reply message (sequence {sequence}): {source}")]
+    Reply { sequence: u32, source: wire::ContactsDecodeError },
+}
+
+/// Why a frame message does not decode.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FrameDecodeError {
+    /// Its header.
+    #[error(transparent)]
+    Header(#[from] wire::FrameError),
+    /// The message ends inside a 4-byte word.
+    #[error("the message ends inside a word")]
+    CutWord,
+    /// A key frame whose floats are not the header's count.
+    #[error("key frame of {bytes} bytes for {floats} floats")]
+    KeyFrameLength { bytes: usize, floats: usize },
+    /// A delta whose frame before has another size (or is missing).
+    #[error("a delta for {floats} floats after a frame of {before} (no key frame before it)")]
+    DeltaWithoutKey { floats: usize, before: usize },
+    /// A run of a delta past the frame's end.
+    #[error("a run of {len} floats at {start}, beyond the frame's {floats}")]
+    RunBeyond { start: usize, len: usize, floats: usize },
+    /// Bytes left after the last run of a delta.
+    #[error("{0} bytes after the last run")]
+    Trailing(usize),
+    /// Neither key (0) nor delta (1).
+    #[error("unknown frame kind {0} (0 key, 1 delta)")]
+    UnknownKind(u32),
+}
+
+/// How a replayed reply differs from the recorded one ([`compare_replies`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReplyDifference {
+    #[error("status {got} ({got_message}), recorded {recorded} ({recorded_message})")]
+    Status { got: u16, got_message: String, recorded: u16, recorded_message: String },
+    #[error("error location or message differs: {got:?} vs recorded {recorded:?}")]
+    Error { got: String, recorded: String },
+    #[error("flags {got:#x}, recorded {recorded:#x}")]
+    Flags { got: u16, recorded: u16 },
+    #[error("{got} contacts, recorded {recorded}")]
+    Count { got: usize, recorded: usize },
+    #[error("contact {index} differs: depth {got_depth} at {got_point:?}, recorded depth {recorded_depth} at {recorded_point:?}")]
+    Contact { index: usize, got_depth: f32, got_point: [f32; 3], recorded_depth: f32, recorded_point: [f32; 3] },
 }
 
 /// Counts of a finished recording.
@@ -299,7 +364,7 @@ impl Recording {
     /// lacks the spec, or holds a frame / reply that does not decode is refused with an error
     /// naming the problem.
     pub fn open(path: &Path) -> Result<Self, RecordingError> {
-        let not_lumen = |what: String| RecordingError::NotLumen { path: path.to_owned(), what };
+        let not_lumen = |what: BadMessage| RecordingError::NotLumen { path: path.to_owned(), what };
         let mut spec: Option<SceneSpec> = None;
         let (mut frames, mut replies) = (0u64, HashMap::new());
         let (mut session, mut missed) = (0u64, None);
@@ -308,27 +373,27 @@ impl Recording {
             let m = message?;
             match m.channel.topic.as_str() {
                 SPEC_TOPIC => {
-                    let s = serde_json::from_slice(&m.data).map_err(|e| not_lumen(format!("its {SPEC_TOPIC} message is not a scene spec: {e}")))?;
+                    let s = serde_json::from_slice(&m.data).map_err(|e| not_lumen(BadMessage::Spec(e)))?;
                     spec = Some(s);
                     session = m.channel.metadata.get("session").and_then(|v| v.parse().ok()).unwrap_or(0);
                 }
                 SUMMARY_TOPIC => {
-                    let map: BTreeMap<String, String> = serde_json::from_slice(&m.data).map_err(|e| not_lumen(format!("its {SUMMARY_TOPIC} message is not a map of counts: {e}")))?;
+                    let map: BTreeMap<String, String> = serde_json::from_slice(&m.data).map_err(|e| not_lumen(BadMessage::Summary(e)))?;
                     let get = |k: &str| map.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
                     missed = Some(Missed { frames: get("missed_frames"), replies: get("missed_replies") });
                 }
                 FRAMES_TOPIC => {
-                    decode_frame(&m.data, &mut state).map_err(|e| not_lumen(format!("frame message {} (sequence {}): {e}", frames, m.sequence)))?;
+                    decode_frame(&m.data, &mut state).map_err(|source| not_lumen(BadMessage::Frame { index: Some(frames), sequence: m.sequence, source }))?;
                     frames += 1;
                 }
                 CONTACTS_TOPIC => {
-                    let h = wire::decode_contacts(&m.data, &mut decoded).map_err(|e| not_lumen(format!("reply message (sequence {}): {e}", m.sequence)))?;
+                    let h = wire::decode_contacts(&m.data, &mut decoded).map_err(|source| not_lumen(BadMessage::Reply { sequence: m.sequence, source }))?;
                     replies.insert(h.frame, RecordedReply { header: h, contacts: std::mem::take(&mut decoded) });
                 }
                 _ => {}
             }
         }
-        let spec = spec.ok_or_else(|| not_lumen(format!("no {SPEC_TOPIC} message (was it written by `lumen record`?)")))?;
+        let spec = spec.ok_or_else(|| not_lumen(BadMessage::NoSpec))?;
         Ok(Self { path: path.to_owned(), spec, session, frames, replies, missed })
     }
 
@@ -341,7 +406,7 @@ impl Recording {
             Ok(m) if m.channel.topic == FRAMES_TOPIC => Some(
                 decode_frame(&m.data, &mut state)
                     .map(|header| RecordedFrame { header, state: state.clone(), log_time_ns: m.log_time })
-                    .map_err(|e| RecordingError::NotLumen { path: path.clone(), what: format!("frame message (sequence {}): {e}", m.sequence) }),
+                    .map_err(|source| RecordingError::NotLumen { path: path.clone(), what: BadMessage::Frame { index: None, sequence: m.sequence, source } }),
             ),
             Ok(_) => None,
         }))
@@ -423,37 +488,37 @@ fn encode_delta(last: &mut [u32], state: &[f32], out: &mut Vec<u8>) {
 
 /// Decodes a frame message into its header and `state` (which holds the frame decoded before
 /// it on the topic, and becomes this one's floats).
-fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, String> {
-    let header = FrameHeader::read(bytes).map_err(|e| e.to_string())?;
+fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, FrameDecodeError> {
+    let header = FrameHeader::read(bytes)?;
     let mut r = Words(&bytes[wire::FRAME_HEADER_BYTES..]);
     let floats = header.floats as usize;
     match r.u32()? {
         0 => {
             let body = r.0;
             if body.len() != 4 * floats {
-                return Err(format!("key frame of {} bytes for {floats} floats", body.len()));
+                return Err(FrameDecodeError::KeyFrameLength { bytes: body.len(), floats });
             }
             state.clear();
             state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
         }
         1 => {
             if state.len() != floats {
-                return Err(format!("a delta for {floats} floats after a frame of {} (no key frame before it)", state.len()));
+                return Err(FrameDecodeError::DeltaWithoutKey { floats, before: state.len() });
             }
             for _ in 0..r.u32()? {
                 let (start, len) = (r.u32()? as usize, r.u32()? as usize);
                 if start.checked_add(len).is_none_or(|end| end > floats) {
-                    return Err(format!("a run of {len} floats at {start}, beyond the frame's {floats}"));
+                    return Err(FrameDecodeError::RunBeyond { start, len, floats });
                 }
                 for v in &mut state[start..start + len] {
                     *v = f32::from_bits(r.u32()?);
                 }
             }
             if !r.0.is_empty() {
-                return Err(format!("{} bytes after the last run", r.0.len()));
+                return Err(FrameDecodeError::Trailing(r.0.len()));
             }
         }
-        k => return Err(format!("unknown frame kind {k} (0 key, 1 delta)")),
+        k => return Err(FrameDecodeError::UnknownKind(k)),
     }
     Ok(header)
 }
@@ -462,8 +527,8 @@ fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, Strin
 struct Words<'a>(&'a [u8]);
 
 impl Words<'_> {
-    fn u32(&mut self) -> Result<u32, String> {
-        let (w, rest) = self.0.split_first_chunk::<4>().ok_or("the message ends inside a word")?;
+    fn u32(&mut self) -> Result<u32, FrameDecodeError> {
+        let (w, rest) = self.0.split_first_chunk::<4>().ok_or(FrameDecodeError::CutWord)?;
         self.0 = rest;
         Ok(u32::from_le_bytes(*w))
     }
@@ -473,20 +538,20 @@ impl Words<'_> {
 /// (status, error location and message, flags, every contact's bytes), else the first
 /// difference. Session, frame, timestamps, `detect_ns` and `skipped` are not compared: they
 /// belong to the run, not to the frame.
-pub fn compare_replies(got: (&ContactsHeader, &[Contact]), recorded: &RecordedReply) -> Result<(), String> {
+pub fn compare_replies(got: (&ContactsHeader, &[Contact]), recorded: &RecordedReply) -> Result<(), ReplyDifference> {
     let (h, contacts) = got;
     let r = &recorded.header;
     if h.status != r.status {
-        return Err(format!("status {} ({}), recorded {} ({})", h.status, h.message(), r.status, r.message()));
+        return Err(ReplyDifference::Status { got: h.status, got_message: h.message().to_owned(), recorded: r.status, recorded_message: r.message().to_owned() });
     }
     if (h.error_body, h.error_index, h.error_spoke) != (r.error_body, r.error_index, r.error_spoke) || h.message() != r.message() {
-        return Err(format!("error location or message differs: {:?} vs recorded {:?}", h.message(), r.message()));
+        return Err(ReplyDifference::Error { got: h.message().to_owned(), recorded: r.message().to_owned() });
     }
     if h.flags != r.flags {
-        return Err(format!("flags {:#x}, recorded {:#x}", h.flags, r.flags));
+        return Err(ReplyDifference::Flags { got: h.flags, recorded: r.flags });
     }
     if contacts.len() != recorded.contacts.len() {
-        return Err(format!("{} contacts, recorded {}", contacts.len(), recorded.contacts.len()));
+        return Err(ReplyDifference::Count { got: contacts.len(), recorded: recorded.contacts.len() });
     }
     let (mut a, mut b) = (Vec::with_capacity(CONTACT_BYTES), Vec::with_capacity(CONTACT_BYTES));
     for (i, (x, y)) in contacts.iter().zip(&recorded.contacts).enumerate() {
@@ -495,7 +560,7 @@ pub fn compare_replies(got: (&ContactsHeader, &[Contact]), recorded: &RecordedRe
         wire::encode_contact(x, &mut a);
         wire::encode_contact(y, &mut b);
         if a != b {
-            return Err(format!("contact {i} differs: depth {} at {:?}, recorded depth {} at {:?}", x.depth, x.point_a, y.depth, y.point_a));
+            return Err(ReplyDifference::Contact { index: i, got_depth: x.depth, got_point: x.point_a, recorded_depth: y.depth, recorded_point: y.point_a });
         }
     }
     Ok(())
@@ -553,18 +618,18 @@ mod tests {
         let mut delta = header(1, 10).to_bytes().to_vec();
         delta.extend_from_slice(&1u32.to_le_bytes());
         delta.extend_from_slice(&0u32.to_le_bytes());
-        assert!(decode_frame(&delta, &mut decoded).unwrap_err().contains("no key frame"));
+        assert!(decode_frame(&delta, &mut decoded).unwrap_err().to_string().contains("no key frame"));
         decode_frame(&key, &mut decoded).unwrap();
         // A run beyond the frame, a cut message, an unknown kind, a short key frame.
         let mut beyond = header(1, 10).to_bytes().to_vec();
         for w in [1u32, 1, 8, 3, 0, 0, 0] {
             beyond.extend_from_slice(&w.to_le_bytes());
         }
-        assert!(decode_frame(&beyond, &mut decoded).unwrap_err().contains("beyond"));
+        assert!(decode_frame(&beyond, &mut decoded).unwrap_err().to_string().contains("beyond"));
         assert!(decode_frame(&beyond[..beyond.len() - 2], &mut decoded).is_err());
         let mut kind = header(1, 10).to_bytes().to_vec();
         kind.extend_from_slice(&9u32.to_le_bytes());
-        assert!(decode_frame(&kind, &mut decoded).unwrap_err().contains("unknown frame kind 9"));
-        assert!(decode_frame(&key[..key.len() - 4], &mut decoded).unwrap_err().contains("key frame"));
+        assert!(decode_frame(&kind, &mut decoded).unwrap_err().to_string().contains("unknown frame kind 9"));
+        assert!(decode_frame(&key[..key.len() - 4], &mut decoded).unwrap_err().to_string().contains("key frame"));
     }
 }

@@ -15,6 +15,7 @@
 use super::transport::TransportArg;
 use super::sim::RunArgs;
 use lumen_service::daemon::{block_termination_signals, wait_signal};
+use crate::commands::{CliError, CliResult};
 use crate::demo_report::{self, Summary};
 use crate::figures::{FrameRow, RunFigures, SimLine};
 use crate::procs::{Next, Proc};
@@ -49,25 +50,25 @@ pub struct DemoArgs {
 /// Why the demo stopped before its report.
 enum Stop {
     Signal(i32),
-    Failed(String),
+    Failed(CliError),
 }
 
-impl From<String> for Stop {
-    fn from(s: String) -> Self {
-        Stop::Failed(s)
+impl From<CliError> for Stop {
+    fn from(e: CliError) -> Self {
+        Stop::Failed(e)
     }
 }
 
-pub fn run(args: DemoArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
+pub fn run(args: DemoArgs) -> CliResult<ExitCode> {
     // Before any thread exists, so every thread has them blocked and they arrive in the loop.
     block_termination_signals();
     if args.run.frames == 0 {
-        return Err("--frames must be at least 1".into());
+        return Err(CliError::bad_flag("--frames", args.run.frames, "at least 1"));
     }
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("--out {}: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out).map_err(|source| CliError::FlagPath { flag: "--out", path: args.out.clone(), source })?;
     let prefix = args.prefix.clone().unwrap_or_else(|| format!("lumen_demo_{}_", std::process::id()));
     if !lumen_transport::shm::shm_files(&prefix).is_empty() {
-        return Err(format!("iceoryx2 prefix {prefix:?} is in use (files in /dev/shm); choose another --prefix").into());
+        return Err(CliError::PrefixInUse { prefix });
     }
     println!("lumen demo: prefix {prefix}, pid {}, report in {}", std::process::id(), args.out.display());
     let mut run = Run { args: &args, prefix: &prefix, procs: Vec::new() };
@@ -91,7 +92,7 @@ pub fn run(args: DemoArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
             eprintln!("lumen demo: interrupted (signal {sig}); children stopped, prefix {prefix} cleaned");
             Ok(ExitCode::from(super::sim::INTERRUPTED))
         }
-        Err(Stop::Failed(e)) => Err(e.into()),
+        Err(Stop::Failed(e)) => Err(e),
     }
 }
 
@@ -104,7 +105,7 @@ struct Run<'a> {
 
 impl Run<'_> {
     fn go(&mut self) -> Result<ExitCode, Stop> {
-        let exe = std::env::current_exe().map_err(|e| format!("finding this executable: {e}"))?;
+        let exe = std::env::current_exe().map_err(CliError::CurrentExe)?;
         let zenoh = (self.args.transport == TransportArg::Zenoh).then(|| format!("tcp/127.0.0.1:{}", crate::ipc::ipc::free_port()));
 
         let mut serve = Command::new(&exe);
@@ -168,11 +169,11 @@ impl Run<'_> {
                 Next::Line(_) | Next::Waiting => {}
                 Next::Closed => {
                     let status = p.wait(Duration::from_secs(5)).map_or("killed".into(), |s| s.to_string());
-                    return Err(Stop::Failed(format!("the {} ended ({status}) before saying {start:?}; its messages are above", p.name)));
+                    return Err(Stop::Failed(CliError::ChildEnded { name: p.name, status, expected: start.to_owned() }));
                 }
             }
             if Instant::now() > end {
-                return Err(Stop::Failed(format!("the {} did not say {start:?} within {limit:?}", self.procs[i].name)));
+                return Err(Stop::Failed(CliError::ChildSilent { name: self.procs[i].name, expected: start.to_owned(), limit }));
             }
         }
     }
@@ -219,7 +220,7 @@ impl Run<'_> {
         let rows = read_rows(figures_path)?;
         let mut summary = Summary::new(self.args.run.scene.name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
         summary.recording = recording;
-        demo_report::write(&self.args.out, &summary, &rows).map_err(|e| format!("writing the report in {}: {e}", self.args.out.display()))?;
+        demo_report::write(&self.args.out, &summary, &rows).map_err(|e| CliError::Report { dir: self.args.out.clone(), source: Box::new(e) })?;
         println!("{}", summary.text());
         println!("lumen demo: report in {}", self.args.out.join("report.md").display());
         if summary.failures.is_empty() {
@@ -270,7 +271,7 @@ fn progress_message(f: &RunFigures) -> String {
 }
 
 /// The per-frame figures `lumen sim` wrote.
-fn read_rows(path: &Path) -> Result<Vec<FrameRow>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
-    text.lines().enumerate().map(|(i, l)| serde_json::from_str(l).map_err(|e| format!("{} line {}: {e}", path.display(), i + 1))).collect()
+fn read_rows(path: &Path) -> CliResult<Vec<FrameRow>> {
+    let text = std::fs::read_to_string(path).map_err(|source| CliError::Read { path: path.to_owned(), source })?;
+    text.lines().enumerate().map(|(i, l)| serde_json::from_str(l).map_err(|source| CliError::FigureLine { path: path.to_owned(), line: i + 1, source })).collect()
 }

@@ -2,7 +2,7 @@
 //! a tube model from a triangle surface and its midline, by ray casting
 //! ([`lumen_import`] does the work and counts every repaired spoke).
 
-use crate::commands::CliResult;
+use crate::commands::{CliError, CliResult};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumen_detect::model::{save_native, to_text};
@@ -55,10 +55,9 @@ pub fn run(a: ImportArgs) -> CliResult {
     // load.
     if let Err(e) = params.validate() {
         return Err(match e {
-            ImportError::Param { name, value, expected } => format!("--{} {value}: expected {expected}", name.replace('_', "-")),
-            e => e.to_string(),
-        }
-        .into());
+            ImportError::Param { name, value, expected } => CliError::bad_flag(format!("--{}", name.replace('_', "-")), value, expected),
+            e => e.into(),
+        });
     }
     let spinner = ProgressBar::new_spinner().with_style(ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("a valid template"));
     spinner.enable_steady_tick(Duration::from_millis(120));
@@ -71,7 +70,7 @@ pub fn run(a: ImportArgs) -> CliResult {
     let (tube, report) = built?;
     let text = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"));
     let bytes = if text { to_text(&tube).into_bytes() } else { save_native(&Body::Tube(tube)) };
-    std::fs::write(&a.output, bytes).map_err(|e| format!("{}: {e}", a.output.display()))?;
+    std::fs::write(&a.output, bytes).map_err(|source| CliError::Write { path: a.output.clone(), source })?;
     println!("{report}");
     println!("wrote {} ({})", a.output.display(), if text { "text format" } else { "native format" });
     Ok(())

@@ -10,6 +10,7 @@ pub mod sim;
 pub mod status;
 pub mod transport;
 
+pub use crate::error::{CliError, CliResult};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -74,6 +75,3 @@ fn init_logging(filter: &str) {
     let filter = std::env::var("RUST_LOG").unwrap_or_else(|_| format!("{filter},zenoh=warn"));
     let _ = tracing_subscriber::fmt().with_env_filter(tracing_subscriber::EnvFilter::new(filter)).with_writer(std::io::stderr).try_init();
 }
-
-/// An error of any subcommand, for people.
-pub type CliResult = Result<(), Box<dyn std::error::Error>>;

@@ -3,8 +3,8 @@
 //! the recorded one, bit for bit: a recorded run becomes a regression test and a benchmark input.
 
 use super::transport::TransportArgs;
-use super::CliResult;
-use crate::recording::{compare_replies, Recording};
+use super::{CliError, CliResult};
+use crate::recording::{compare_replies, Recording, ReplyDifference};
 use lumen_service::stats::pick;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -40,15 +40,20 @@ pub enum Speed {
     Max,
 }
 
+/// A `--speed` that is neither `max` nor a positive number.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("speed {0:?} is neither `max` nor a positive number (1 = as recorded)")]
+pub struct BadSpeed(pub String);
+
 impl FromStr for Speed {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = BadSpeed;
+    fn from_str(s: &str) -> Result<Self, BadSpeed> {
         if s == "max" {
             return Ok(Speed::Max);
         }
         match s.parse::<f64>() {
             Ok(f) if f.is_finite() && f > 0.0 => Ok(Speed::Factor(f)),
-            _ => Err(format!("speed {s:?} is neither `max` nor a positive number (1 = as recorded)")),
+            _ => Err(BadSpeed(s.to_owned())),
         }
     }
 }
@@ -65,7 +70,7 @@ pub struct ReplayReport {
     /// Frames whose reply the recording lacks (the recorder missed it): not compared.
     pub unrecorded: u64,
     /// The first differing frame and how it differs.
-    pub first_difference: Option<(u64, String)>,
+    pub first_difference: Option<(u64, ReplyDifference)>,
     /// Round trip (submit to reply) p50 and p99, microseconds.
     pub round_trip_p50_us: f64,
     pub round_trip_p99_us: f64,
@@ -75,7 +80,7 @@ pub struct ReplayReport {
 
 pub fn run(args: ReplayArgs) -> CliResult {
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
-        return Err(format!("--timeout {} must be a positive number of seconds", args.timeout).into());
+        return Err(CliError::bad_flag("--timeout", args.timeout, "a positive number of seconds"));
     }
     // The whole file is checked before anything is sent: a damaged one fails here, clearly.
     let recording = Recording::open(&args.input)?;
@@ -88,14 +93,14 @@ pub fn run(args: ReplayArgs) -> CliResult {
     if let Some((frame, what)) = &report.first_difference {
         println!("lumen replay: first difference at frame {frame}: {what}");
         if args.check {
-            return Err(format!("{} of {} replies differ from {} (first at frame {frame}: {what})", report.differed, report.frames, args.input.display()).into());
+            return Err(CliError::RepliesDiffer { differed: report.differed, frames: report.frames, path: args.input.clone(), frame: *frame, source: what.clone() });
         }
     }
     Ok(())
 }
 
 /// Plays `recording` back through `client` and compares the replies.
-pub fn replay(recording: &Recording, client: &lumen_client::Client, speed: Speed, timeout: Duration) -> Result<ReplayReport, Box<dyn std::error::Error>> {
+pub fn replay(recording: &Recording, client: &lumen_client::Client, speed: Speed, timeout: Duration) -> CliResult<ReplayReport> {
     let mut session = client.open_session(&recording.spec)?;
     let bar = if std::io::stderr().is_terminal() { ProgressBar::with_draw_target(Some(recording.frames), ProgressDrawTarget::stderr()) } else { ProgressBar::hidden() };
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {msg}").expect("a valid template"));
@@ -131,7 +136,7 @@ pub fn replay(recording: &Recording, client: &lumen_client::Client, speed: Speed
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
-                return Err(format!("no reply to frame {} within {timeout:?}", rec.frame).into());
+                return Err(CliError::NoReply { frame: rec.frame, timeout });
             }
             let reply = match session.contacts(left) {
                 Ok(r) => r,

@@ -12,6 +12,7 @@
 
 use super::transport::TransportArgs;
 use lumen_service::daemon::{block_termination_signals, wait_signal};
+use crate::commands::{CliError, CliResult};
 use crate::figures::{FrameRow, SimLine, Tally};
 use clap::Args;
 use lumen_scene::ColonKind;
@@ -62,14 +63,14 @@ pub struct SimArgs {
 /// Exit status after SIGINT / SIGTERM (128 + SIGINT, as shells report it).
 pub const INTERRUPTED: u8 = 130;
 
-pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::Error>> {
+pub fn run(args: SimArgs) -> CliResult<std::process::ExitCode> {
     // Signals are taken between frames, so the session closes and the summary is printed.
     block_termination_signals();
     if !(args.reply_timeout > 0.0 && args.reply_timeout.is_finite()) {
-        return Err(format!("--reply-timeout must be a positive number of seconds, not {}", args.reply_timeout).into());
+        return Err(CliError::bad_flag("--reply-timeout", args.reply_timeout, "a positive number of seconds"));
     }
     let t0 = Instant::now();
-    let colon = setup::colon(args.run.scene, args.seed, args.run.data.as_deref()).map_err(|e| format!("the {} colon: {e}", args.run.scene.name()))?;
+    let colon = setup::colon(args.run.scene, args.seed, args.run.data.as_deref()).map_err(|source| CliError::Colon { scene: args.run.scene.name(), source })?;
     if args.run.scene == ColonKind::Gca {
         eprintln!("data: {}", lumen_scene::gca::attribution());
     }
@@ -79,9 +80,8 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     let client = args.transport.client("lumen sim")?;
     let session = client.open_session(&spec)?;
     let mut out = std::io::stdout().lock();
-    writeln!(out, "session {}", session.id())?;
-    out.flush()?;
-    if args.hold && !wait_for_go()? {
+    writeln!(out, "session {}", session.id()).and_then(|()| out.flush()).map_err(CliError::Stdout)?;
+    if args.hold && !wait_for_go() {
         eprintln!("lumen sim: interrupted before the first frame");
         return Ok(std::process::ExitCode::from(INTERRUPTED));
     }
@@ -89,18 +89,19 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
     source.timeout = Duration::from_secs_f64(args.reply_timeout);
     let mut world = World::new(&colon, config, source)?;
     eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.run.frames, args.transport.transport());
+    let figures_error = |source| CliError::FlagPath { flag: "--figures", path: args.figures.clone().unwrap_or_default(), source };
     let mut figures = match &args.figures {
-        Some(p) => Some(BufWriter::new(std::fs::File::create(p).map_err(|e| format!("--figures {}: {e}", p.display()))?)),
+        Some(p) => Some(BufWriter::new(std::fs::File::create(p).map_err(|source| CliError::FlagPath { flag: "--figures", path: p.clone(), source })?)),
         None => None,
     };
     let mut tally = Tally::new(args.run.frames);
-    let mut error = None;
-    let mut interrupted = false;
+    // The failure, or the signal's message; the summary line carries it as text.
+    let mut failure: Option<CliError> = None;
+    let mut interrupted: Option<String> = None;
     let start = Instant::now();
     for _ in 0..args.run.frames {
         if let Some(sig) = wait_signal(Duration::ZERO) {
-            error = Some(format!("interrupted by signal {sig} after {} frames", world.frame()));
-            interrupted = true;
+            interrupted = Some(format!("interrupted by signal {sig} after {} frames", world.frame()));
             break;
         }
         let row = match world.step().cloned() {
@@ -115,50 +116,51 @@ pub fn run(args: SimArgs) -> Result<std::process::ExitCode, Box<dyn std::error::
                 nan: false,
             },
             Err(SimError::NonFinite { frame }) => {
-                error = Some(format!("frame {frame} produced a non-finite value (NaN)"));
+                failure = Some(CliError::NonFinite { frame });
                 FrameRow { frame, nan: true, ..FrameRow::default() }
             }
             Err(e) => {
-                error = Some(e.to_string());
+                failure = Some(e.into());
                 break;
             }
         };
         tally.add(&row);
         if let Some(f) = figures.as_mut() {
             serde_json::to_writer(&mut *f, &row)?;
-            f.write_all(b"\n")?;
+            f.write_all(b"\n").map_err(figures_error)?;
         }
         if row.nan {
             break;
         }
         if args.progress_every > 0 && row.frame % args.progress_every == 0 {
-            writeln!(out, "{}", serde_json::to_string(&SimLine::Progress(tally.figures(start.elapsed().as_secs_f64())))?)?;
-            out.flush()?;
+            let line = serde_json::to_string(&SimLine::Progress(tally.figures(start.elapsed().as_secs_f64())))?;
+            writeln!(out, "{line}").and_then(|()| out.flush()).map_err(CliError::Stdout)?;
         }
     }
     let wall_s = start.elapsed().as_secs_f64();
     if let Some(mut f) = figures {
-        f.flush()?;
+        f.flush().map_err(figures_error)?;
     }
     let figures = tally.figures(wall_s);
-    writeln!(out, "{}", serde_json::to_string(&SimLine::Summary { figures: figures.clone(), error: error.clone() })?)?;
-    out.flush()?;
+    let error = interrupted.clone().or_else(|| failure.as_ref().map(ToString::to_string));
+    let line = serde_json::to_string(&SimLine::Summary { figures: figures.clone(), error })?;
+    writeln!(out, "{line}").and_then(|()| out.flush()).map_err(CliError::Stdout)?;
     eprintln!(
         "lumen sim: {} frames, {:.0} frames/s, round trip p50 {:.0} us p99 {:.0} us, contacts at most {}, max penetration {:.3} mm, escaped samples at most {}, NaN frames {}",
         figures.frames, figures.physics_fps, figures.rtt_p50_us, figures.rtt_p99_us, figures.contacts_max, figures.max_penetration_mm, figures.escaped_samples_max, figures.nan_frames
     );
-    match error {
-        None => Ok(std::process::ExitCode::SUCCESS),
-        Some(e) if interrupted => {
-            eprintln!("lumen sim: {e}");
+    match (interrupted, failure) {
+        (Some(why), _) => {
+            eprintln!("lumen sim: {why}");
             Ok(std::process::ExitCode::from(INTERRUPTED))
         }
-        Some(e) => Err(e.into()),
+        (None, Some(e)) => Err(e),
+        (None, None) => Ok(std::process::ExitCode::SUCCESS),
     }
 }
 
 /// Waits for a line or the end of stdin, watching for SIGINT / SIGTERM; false if one came.
-fn wait_for_go() -> Result<bool, Box<dyn std::error::Error>> {
+fn wait_for_go() -> bool {
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let mut line = String::new();
@@ -167,11 +169,11 @@ fn wait_for_go() -> Result<bool, Box<dyn std::error::Error>> {
     });
     loop {
         if wait_signal(Duration::ZERO).is_some() {
-            return Ok(false);
+            return false;
         }
         match rx.recv_timeout(Duration::from_millis(20)) {
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
-            _ => return Ok(true),
+            _ => return true,
         }
     }
 }

@@ -7,6 +7,7 @@
 //! prefix and zenoh port; the clients are threads of this process.
 
 use super::quantile_us;
+use crate::error::{CliError, CliResult};
 use lumen_scene::frames as scene;
 use super::wake::{self, Wake};
 use lumen_client::{now_ns, Client, Error as ClientError, LocalOptions, Session, Transport};
@@ -144,8 +145,8 @@ pub struct DaemonChild {
 
 impl DaemonChild {
     /// Starts `exe serve ARGS...` and waits for its "ready" line.
-    pub fn spawn(exe: &std::path::Path, args: &[String]) -> Result<Self, String> {
-        let mut child = Command::new(exe).arg("serve").args(args).stdout(Stdio::piped()).stderr(Stdio::inherit()).spawn().map_err(|e| format!("starting {}: {e}", exe.display()))?;
+    pub fn spawn(exe: &std::path::Path, args: &[String]) -> CliResult<Self> {
+        let mut child = Command::new(exe).arg("serve").args(args).stdout(Stdio::piped()).stderr(Stdio::inherit()).spawn().map_err(|source| CliError::StartDaemon { exe: exe.to_owned(), source })?;
         let stdout = child.stdout.take().expect("piped");
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
@@ -156,9 +157,10 @@ impl DaemonChild {
             }
         });
         let mut me = Self { child };
-        if rx.recv_timeout(Duration::from_secs(20)).is_err() {
+        let limit = Duration::from_secs(20);
+        if rx.recv_timeout(limit).is_err() {
             let _ = me.child.kill();
-            return Err("the daemon did not get ready within 20 s".into());
+            return Err(CliError::DaemonNotReady { limit });
         }
         Ok(me)
     }
@@ -187,12 +189,12 @@ pub fn free_port() -> u16 {
 
 impl IpcBench {
     /// A plan; `only` restricts it to `iceoryx2` or `zenoh`.
-    pub fn new(quick: bool, only: Option<&str>) -> Result<Self, String> {
+    pub fn new(quick: bool, only: Option<&str>) -> CliResult<Self> {
         let transports = match only {
             None => vec![Transport::Iceoryx2, Transport::Zenoh],
             Some("iceoryx2") => vec![Transport::Iceoryx2],
             Some("zenoh") => vec![Transport::Zenoh],
-            Some(o) => return Err(format!("unknown transport {o:?}: use iceoryx2 or zenoh")),
+            Some(o) => return Err(CliError::UnknownTransport { name: o.to_owned() }),
         };
         let prefix = format!("lumen_bench_{}_", std::process::id());
         Ok(Self { quick, stand_in: false, frames: None, think: Duration::ZERO, transports, prefix, endpoint: format!("tcp/127.0.0.1:{}", free_port()) })
@@ -206,8 +208,8 @@ impl IpcBench {
     }
 
     /// Runs every measurement against a fresh daemon.
-    pub fn run(&self) -> Result<IpcReport, Box<dyn std::error::Error>> {
-        let exe = std::env::current_exe()?;
+    pub fn run(&self) -> CliResult<IpcReport> {
+        let exe = std::env::current_exe().map_err(CliError::CurrentExe)?;
         let args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--log", "warn"].iter().map(|s| s.to_string()).collect();
         let _daemon = DaemonChild::spawn(&exe, &args)?;
         let (spec, states) = if self.stand_in { scene::stand_in(FRAMES) } else { scene::generated(FRAMES) };
@@ -238,7 +240,7 @@ impl IpcBench {
             runs.push(summarise(t, "4-sessions", det, echo));
         }
         bar.set_message("the machine's wake-up");
-        let wake = wake::floor(n)?;
+        let wake = wake::floor(n).map_err(CliError::WakeFloor)?;
         bar.finish_and_clear();
         drop(_daemon); // SIGTERM: it releases its shared memory
         // The private prefix's node counter (iceoryx2 never removes it) and anything left.
@@ -257,23 +259,23 @@ impl IpcBench {
     /// `k` sessions at 1 kHz each at once, one client thread per session, each alternating
     /// with an echo session of its own in the same blocks ([`BLOCK`]): the detection and the echo
     /// of all `k` take turns together. Returns (detection, echo).
-    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize) -> Result<(Samples, Samples), Box<dyn std::error::Error>> {
+    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize) -> CliResult<(Samples, Samples)> {
         let start = Instant::now() + Duration::from_millis(300);
         let handles: Vec<_> = (0..k)
             .map(|_| {
                 let (spec, states) = (spec.clone(), states.clone());
                 let (prefix, endpoint) = (self.prefix.clone(), self.endpoint.clone());
-                std::thread::spawn(move || -> Result<(Samples, Samples), String> {
+                std::thread::spawn(move || -> Result<(Samples, Samples), ClientError> {
                     let me = IpcBench { quick: true, stand_in: false, frames: None, think: Duration::ZERO, transports: vec![], prefix, endpoint };
-                    let client = me.client(t).map_err(|e| e.to_string())?;
+                    let client = me.client(t)?;
                     std::thread::sleep(start.saturating_duration_since(Instant::now()));
-                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, Duration::ZERO).map_err(|e| e.to_string())
+                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, Duration::ZERO)
                 })
             })
             .collect();
         let (mut det, mut echo) = (Samples::default(), Samples::default());
         for h in handles {
-            let (d, e) = h.join().map_err(|_| "a session thread panicked")??;
+            let (d, e) = h.join().map_err(|_| CliError::SessionThreadPanicked)??;
             det.merge(d);
             echo.merge(e);
         }

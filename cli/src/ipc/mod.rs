@@ -1,5 +1,8 @@
 //! Benchmarks behind `lumen bench`.
 
+// `crate::ipc::ipc`: the IPC benchmark inside the benchmarks' folder (paths used by the e2e
+// tests and the README).
+#[allow(clippy::module_inception)]
 pub mod ipc;
 pub mod wake;
 

@@ -1,7 +1,7 @@
 //! `lumen bench ipc [--quick] [--out DIR]`.
 
 use crate::ipc::ipc::{IpcBench, IpcReport};
-use crate::commands::CliResult;
+use crate::commands::{CliError, CliResult};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -34,10 +34,11 @@ pub fn run(args: IpcArgs) -> CliResult {
     bench.frames = args.frames.map(|n| n as usize);
     bench.think = std::time::Duration::from_micros(args.think_us);
     let report: IpcReport = bench.run()?;
-    std::fs::create_dir_all(&args.out)?;
-    std::fs::write(args.out.join("ipc.json"), serde_json::to_string_pretty(&report)?)?;
+    std::fs::create_dir_all(&args.out).map_err(|source| CliError::FlagPath { flag: "--out", path: args.out.clone(), source })?;
+    let write = |name: &str, text: &str| std::fs::write(args.out.join(name), text).map_err(|source| CliError::Write { path: args.out.join(name), source });
+    write("ipc.json", &serde_json::to_string_pretty(&report)?)?;
     let md = report.markdown();
-    std::fs::write(args.out.join("ipc.md"), &md)?;
+    write("ipc.md", &md)?;
     print!("{md}");
     eprintln!("wrote {} and {}", args.out.join("ipc.json").display(), args.out.join("ipc.md").display());
     Ok(())

@@ -18,7 +18,7 @@ pub enum BenchCommand {
 impl BenchCommand {
     pub fn run(self) -> CliResult {
         match self {
-            BenchCommand::Detect(a) => a.run().map(|_| ()).map_err(Into::into),
+            BenchCommand::Detect(a) => Ok(a.run().map(|_| ())?),
             BenchCommand::Ipc(a) => ipc::run(a),
         }
     }
