@@ -3,7 +3,7 @@
 use crate::registry::{Entry, Registry};
 use lumen_proto::session::{contacts_name, frame_name, client_alive_name, ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
-use lumen_proto::{SceneSpec, StateLayout};
+use lumen_proto::SceneSpec;
 use std::sync::Arc;
 
 /// iceoryx2 buffers per session (see `local`): frames are kept one deep per subscriber (newest
@@ -77,11 +77,12 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }
-    if let Err(e) = spec.validate() {
-        return error(ErrorCode::Spec, format!("invalid scene spec: {e}"));
-    }
+    let scene = match spec.validate() {
+        Ok(scene) => scene,
+        Err(e) => return error(ErrorCode::Spec, format!("invalid scene spec: {e}")),
+    };
     let limits = registry.limits;
-    let layout = StateLayout::of(&spec);
+    let layout = scene.layout().clone();
     let max_contacts = contact_bound(&spec).min(limits.max_contacts);
     let observers = limits.max_observers;
     let bytes = match transport {

@@ -25,8 +25,9 @@ impl Engine {
     /// An engine for the session in `entry` (its spec was validated when it opened).
     pub fn new(entry: Arc<Entry>, echo: bool) -> Result<Self, lumen_proto::SpecError> {
         let spec = entry.info.spec.clone();
-        let detector = if echo { None } else { Some(Detector::new(&spec)?) };
-        Ok(Self { id: entry.info.session, layout: StateLayout::of(&spec), spec, detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry })
+        let scene = spec.validate()?;
+        let detector = (!echo).then(|| Detector::new(&scene));
+        Ok(Self { id: entry.info.session, layout: scene.layout().clone(), spec, detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry })
     }
 
     /// Runs one frame: `frame` is the header and floats if they were readable, else the header
@@ -68,7 +69,7 @@ impl Engine {
             }
             Err(_) => {
                 reply.set_error(lumen_proto::wire::Status::Internal, &"the detector failed on this frame; it was reset and the session goes on");
-                self.detector = Detector::new(&self.spec).ok();
+                self.detector = self.spec.validate().ok().map(|scene| Detector::new(&scene));
                 (reply, &[])
             }
         }

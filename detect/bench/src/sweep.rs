@@ -58,7 +58,7 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
     let mut runner = match method {
         MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape).map_err(Error::Scene)?),
         _ => {
-            let mut d = Detector::new(&spec).map_err(|e| Error::Scene(e.to_string()))?;
+            let mut d = Detector::new(&spec.validate().map_err(|e| Error::Scene(e.to_string()))?);
             if matches!(method, MethodKind::Default | MethodKind::Nearest) {
                 d.set_refine(opts.refine);
             }
