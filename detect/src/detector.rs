@@ -105,7 +105,7 @@ fn jobs(spec: &SceneSpec, pairs: &[PairIndex], slot: &[usize], method: Method) -
                 (ContactKind::SelfContact, _) => Job::RodSelf(RodSelf::new(a)),
                 (_, Shape::Rod { .. }) => Job::RodRod(RodRod::new(a, b)),
                 (ContactKind::Exterior, Shape::Tube { .. }) => Job::RodOnTube(RodOnTube::new(a, b)),
-                (ContactKind::Interior, Shape::Tube { .. }) if method == Method::Thesis => Job::Thesis(Thesis::new(a, b)),
+                (ContactKind::Interior, Shape::Tube { .. }) if method == Method::Thesis => Job::Thesis(Box::new(Thesis::new(a, b))),
                 (ContactKind::Interior, Shape::Tube { .. }) => Job::RodInTube(RodInTube::new(a, b)),
             }
         })

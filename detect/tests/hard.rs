@@ -419,7 +419,7 @@ fn hard_counts_beyond_limits() {
     let rod = BodySpec { name: "scope".into(), shape: Shape::Rod { points: 4, radius: vec![1.0] } };
     let pair = vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }];
     let spec = |shape| SceneSpec::new(vec![body(shape), rod.clone()], pair.clone());
-    let err = |s: SceneSpec| s.validate().err().expect("rejected");
+    let err = |s: SceneSpec| s.validate().expect_err("rejected");
     assert!(matches!(err(spec(Shape::Tube { rings: 65_537, spokes: 8 })), SpecError::PointCount { count: 65_537, .. }));
     assert!(matches!(err(spec(Shape::Tube { rings: 1, spokes: 8 })), SpecError::PointCount { count: 1, .. }));
     assert!(matches!(err(spec(Shape::Tube { rings: 10, spokes: 257 })), SpecError::SpokeCount { count: 257, .. }));

@@ -26,8 +26,8 @@ use lumen_proto::Contact;
 pub enum Job {
     /// Interior, signed method.
     RodInTube(rod_in_tube::RodInTube),
-    /// Interior, published method.
-    Thesis(thesis::Thesis),
+    /// Interior, published method (boxed: its buffers are many).
+    Thesis(Box<thesis::Thesis>),
     /// A rod against the outside of a tube.
     RodOnTube(rod_on_tube::RodOnTube),
     /// Two rods.
