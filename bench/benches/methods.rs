@@ -39,7 +39,7 @@ fn bench(c: &mut Criterion) {
             ("thesis", Method::Thesis, false, false),
         ] {
             let (spec, states) = states(method, x);
-            let mut d = Detector::new(&spec).unwrap();
+            let mut d = Detector::new(&spec.validate().unwrap());
             d.set_nearest(nearest);
             let mut f = 0;
             // One buffer rewritten every frame, as a physics engine writes its state in place

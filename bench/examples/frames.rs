@@ -37,7 +37,7 @@ fn main() {
             scene.state()
         })
         .collect();
-    let mut d = Detector::new(&spec.expect("frames")).expect("the scene is valid");
+    let mut d = Detector::new(&spec.expect("frames").validate().expect("the scene is valid"));
     // One buffer rewritten every frame, as a physics engine writes its state in place.
     let mut buf = states[0].clone();
     let mut times = Vec::with_capacity(passes * FRAMES);

@@ -131,7 +131,7 @@ pub fn build(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
         });
         // Every frame is validated once here, as the daemon validates frames on receipt; the
         // detectors are then timed on `detect_prevalidated`.
-        lumen_detect::proto::StateLayout::of(sp).check(sp, &state).map_err(|source| Error::Frame { scene: kind.name(), frame: f.index, source })?;
+        lumen_detect::proto::StateLayout::of(sp).check(&sp.bodies, &state).map_err(|source| Error::Frame { scene: kind.name(), frame: f.index, source })?;
         floats = state.len();
         states.extend_from_slice(&state);
         if keep_eval && is_eval(f.index, escaped, opts.eval_every, opts.eval_escapes_every) {

@@ -60,7 +60,7 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
     let mut runner = match method {
         MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape)?),
         _ => {
-            let mut d = Detector::new(&spec)?;
+            let mut d = Detector::new(&spec.validate()?);
             if matches!(method, MethodKind::Default | MethodKind::Nearest) {
                 d.set_refine(opts.refine);
             }

@@ -170,7 +170,7 @@ fn signed_with(colon: &Tube, scope: &Rod, set: impl FnOnce(&mut lumen_detect::De
 
 /// One frame of `scene`, with `set` applied to the detector first.
 fn detect_with(scene: &Scene, set: impl FnOnce(&mut lumen_detect::Detector)) -> Vec<Contact> {
-    let mut d = lumen_detect::Detector::new(&scene.spec()).unwrap();
+    let mut d = lumen_detect::Detector::new(&scene.spec().validate().unwrap());
     set(&mut d);
     d.detect(&scene.state()).unwrap().to_vec()
 }

@@ -164,7 +164,7 @@ fn detector_reuse_matches_fresh_detectors() {
         let y = 9.0 + 9.0 * (f as f32 * 0.15).sin();
         interior(colon.clone(), line([5.0 + f as f32, y, 2.0], [150.0 + f as f32, y + 60.0, 2.0], 25, 5.0), 3, Method::Signed)
     };
-    let mut d = Detector::new(&mk(0).spec()).unwrap();
+    let mut d = Detector::new(&mk(0).spec().validate().unwrap());
     for f in 0..60 {
         let s = mk(f);
         let warm = d.detect(&s.state()).unwrap().to_vec();
@@ -205,7 +205,7 @@ proptest! {
                 state[i.index(n)] = *v;
             }
             let finite = state.iter().all(|v| v.is_finite());
-            let mut d = Detector::new(&scene.spec()).unwrap();
+            let mut d = Detector::new(&scene.spec().validate().unwrap());
             let _ = d.detect_prevalidated(&state).unwrap().len();
             prop_assert_eq!(d.detect(&state).is_ok(), finite);
         }

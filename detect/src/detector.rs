@@ -1,15 +1,19 @@
 //! The detector: one object per scene, fed one state per frame, returning that frame's contacts.
 
-use crate::bvh::ChainBvh;
-use crate::narrow::rods::{self, Best};
-use crate::narrow::signed::{self, Counters, SignedParams, TubeBvh, Track};
+use crate::broad::bvh::ChainBvh;
+use crate::broad::tube_bvh::TubeBvh;
+use crate::broad::{Counters, RodFrame, TubeFrame};
+use crate::narrow::rod_in_tube::RodInTube;
+use crate::narrow::rod_on_tube::RodOnTube;
+use crate::narrow::rod_rod::RodRod;
+use crate::narrow::rod_self::RodSelf;
 use crate::narrow::thesis::Thesis;
-use crate::narrow::Emit;
+use crate::narrow::{Emit, Job, SignedParams};
 use crate::samples::RodSamples;
-use crate::section::{Gap, TubeCache};
+use crate::section::TubeCache;
 use crate::view::{RodView, TubeView};
 use crate::V3;
-use lumen_proto::{Contact, ContactKind, InputError, Method, SceneSpec, Shape, SpecError, StateLayout};
+use lumen_proto::{BodySpec, Contact, ContactKind, InputError, Method, PairIndex, SceneSpec, Shape, StateLayout, ValidScene};
 
 /// Per-frame figures, for benchmarks and diagnostics.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -26,16 +30,86 @@ pub struct FrameStats {
     pub contacts: u32,
 }
 
-enum BodyState {
-    Tube { cache: TubeCache, bvh: TubeBvh },
-    Rod { samples: RodSamples, bvh: ChainBvh, sampled: bool, bvh_fresh: bool },
+/// A tube's per-frame buffers.
+struct TubeState {
+    /// Its index among the scene's bodies.
+    body: usize,
+    cache: TubeCache,
+    bvh: TubeBvh,
 }
 
-#[derive(Default)]
-struct PairState {
-    tracks: Vec<Track>,
-    gaps: Vec<(f32, Gap)>,
-    best: Vec<Best>,
+/// A rod's samples and BVH, each computed at most once a frame.
+struct RodState {
+    /// Its index among the scene's bodies.
+    body: usize,
+    samples: RodSamples,
+    bvh: ChainBvh,
+    sampled: bool,
+    bvh_fresh: bool,
+}
+
+/// What a frame reads everywhere: the state, where each body lies in it, and the settings.
+#[derive(Clone, Copy)]
+struct FrameCtx<'a> {
+    state: &'a [f32],
+    layout: &'a StateLayout,
+    bodies: &'a [BodySpec],
+    /// Local origin: the scene's first control point (see `view`).
+    origin: V3,
+    x: usize,
+    alpha: f32,
+    margin: f32,
+}
+
+impl TubeState {
+    /// The tube as this frame sees it.
+    #[inline]
+    fn frame<'a>(&'a mut self, f: &FrameCtx<'a>) -> TubeFrame<'a> {
+        let l = f.layout.bodies[self.body];
+        let view = TubeView::new(&f.state[l.offset..l.offset + l.floats()], l.points, l.spokes, f.origin);
+        TubeFrame { view, cache: &mut self.cache, bvh: &mut self.bvh }
+    }
+}
+
+impl RodState {
+    /// Samples the rod once per frame, and builds its BVH when `with_bvh`.
+    fn ensure(&mut self, f: &FrameCtx, with_bvh: bool) {
+        let l = f.layout.bodies[self.body];
+        let spec = &f.bodies[self.body];
+        if !self.sampled {
+            let rod = RodView::new(&f.state[l.offset..l.offset + l.floats()], l.points, f.origin);
+            self.samples.fill(&rod, |j| spec.radius(j), f.x, f.alpha);
+            self.sampled = true;
+        }
+        if with_bvh && !self.bvh_fresh {
+            let samples = &self.samples;
+            self.bvh.build(samples.cubic.len(), |j| samples.leaf(j, f.margin * 0.5));
+            self.bvh_fresh = true;
+        }
+    }
+
+    /// The rod as this frame sees it.
+    #[inline]
+    fn frame(&self) -> RodFrame<'_> {
+        RodFrame { samples: &self.samples, bvh: &self.bvh }
+    }
+}
+
+/// Each pair's job, for `method`; `slot[body]` is the body's index among the tubes or the rods.
+fn jobs(spec: &SceneSpec, pairs: &[PairIndex], slot: &[usize], method: Method) -> Vec<Job> {
+    pairs
+        .iter()
+        .map(|p| {
+            let (a, b) = (slot[p.a], slot[p.b]);
+            match (p.kind, &spec.bodies[p.b].shape) {
+                (ContactKind::SelfContact, _) => Job::RodSelf(RodSelf::new(a)),
+                (_, Shape::Rod { .. }) => Job::RodRod(RodRod::new(a, b)),
+                (ContactKind::Exterior, Shape::Tube { .. }) => Job::RodOnTube(RodOnTube::new(a, b)),
+                (ContactKind::Interior, Shape::Tube { .. }) if method == Method::Thesis => Job::Thesis(Box::new(Thesis::new(a, b))),
+                (ContactKind::Interior, Shape::Tube { .. }) => Job::RodInTube(RodInTube::new(a, b)),
+            }
+        })
+        .collect()
 }
 
 /// Collision detection for one scene. Create it once, call [`Detector::detect`] every frame.
@@ -45,10 +119,13 @@ struct PairState {
 pub struct Detector {
     spec: SceneSpec,
     layout: StateLayout,
-    pairs: Vec<(usize, usize, ContactKind)>,
-    bodies: Vec<BodyState>,
-    pair_state: Vec<PairState>,
-    thesis: Thesis,
+    pairs: Vec<PairIndex>,
+    /// Each body's index among the tubes or the rods.
+    slot: Vec<usize>,
+    tubes: Vec<TubeState>,
+    rods: Vec<RodState>,
+    /// One per pair, in the pairs' order.
+    jobs: Vec<Job>,
     contacts: Vec<Contact>,
     stats: FrameStats,
     refine: u32,
@@ -56,20 +133,36 @@ pub struct Detector {
 }
 
 impl Detector {
-    /// A detector for `spec`, or the reason the spec cannot be used.
-    pub fn new(spec: &SceneSpec) -> Result<Self, SpecError> {
-        let pairs = spec.validate()?;
-        let layout = StateLayout::of(spec);
-        let bodies = spec
-            .bodies
-            .iter()
-            .map(|b| match b.shape {
-                Shape::Tube { .. } => BodyState::Tube { cache: TubeCache::default(), bvh: TubeBvh::default() },
-                Shape::Rod { .. } => BodyState::Rod { samples: RodSamples::default(), bvh: ChainBvh::default(), sampled: false, bvh_fresh: false },
-            })
-            .collect();
-        let pair_state = pairs.iter().map(|_| PairState::default()).collect();
-        Ok(Self { spec: spec.clone(), layout, pairs, bodies, pair_state, thesis: Thesis::default(), contacts: Vec::new(), stats: FrameStats::default(), refine: spec.refine, nearest: spec.nearest })
+    /// A detector for a validated scene ([`SceneSpec::validate`]).
+    pub fn new(scene: &ValidScene) -> Self {
+        let spec = scene.spec();
+        let (mut tubes, mut rods, mut slot) = (Vec::new(), Vec::new(), Vec::with_capacity(spec.bodies.len()));
+        for (body, b) in spec.bodies.iter().enumerate() {
+            match b.shape {
+                Shape::Tube { .. } => {
+                    slot.push(tubes.len());
+                    tubes.push(TubeState { body, cache: TubeCache::default(), bvh: TubeBvh::default() });
+                }
+                Shape::Rod { .. } => {
+                    slot.push(rods.len());
+                    rods.push(RodState { body, samples: RodSamples::default(), bvh: ChainBvh::default(), sampled: false, bvh_fresh: false });
+                }
+            }
+        }
+        let jobs = jobs(spec, scene.pairs(), &slot, spec.method);
+        Self {
+            spec: spec.clone(),
+            layout: scene.layout().clone(),
+            pairs: scene.pairs().to_vec(),
+            slot,
+            tubes,
+            rods,
+            jobs,
+            contacts: Vec::new(),
+            stats: FrameStats::default(),
+            refine: spec.refine,
+            nearest: spec.nearest,
+        }
     }
 
     /// The scene this detector serves.
@@ -82,10 +175,11 @@ impl Detector {
         &self.layout
     }
 
-    /// Switches the method; the next frame starts without history.
+    /// Switches the method (the interior pairs' jobs are made again); the next frame starts
+    /// without history.
     pub fn set_method(&mut self, method: Method) {
         self.spec.method = method;
-        self.reset();
+        self.jobs = jobs(&self.spec, &self.pairs, &self.slot, method);
     }
 
     /// Number of axial re-projections of the signed method (the spec's `refine`, default 0),
@@ -107,8 +201,10 @@ impl Detector {
 
     /// Forgets all history: the next frame locates every sample through the BVH.
     pub fn reset(&mut self) {
-        for p in &mut self.pair_state {
-            p.tracks.iter_mut().for_each(|t| *t = Track::default());
+        for job in &mut self.jobs {
+            if let Job::RodInTube(j) = job {
+                j.reset();
+            }
         }
     }
 
@@ -127,7 +223,7 @@ impl Detector {
     /// non-finite value is rejected with an error naming body and index; the detector's history
     /// is kept, so the next good frame continues.
     pub fn detect(&mut self, state: &[f32]) -> Result<&[Contact], InputError> {
-        self.layout.check(&self.spec, state)?;
+        self.layout.check(&self.spec.bodies, state)?;
         Ok(self.run(state))
     }
 
@@ -144,102 +240,48 @@ impl Detector {
     }
 
     fn run(&mut self, state: &[f32]) -> &[Contact] {
-        // Local origin: the scene's first control point (see `view`).
-        let origin = V3::new(state[0], state[1], state[2]);
-        let x = self.spec.precision as usize;
-        let alpha = self.spec.alpha;
-        for (b, body) in self.bodies.iter_mut().enumerate() {
-            match body {
-                BodyState::Tube { cache, bvh } => {
-                    cache.begin(self.layout.bodies[b].points, alpha);
-                    bvh.begin();
-                }
-                BodyState::Rod { sampled, bvh_fresh, .. } => {
-                    *sampled = false;
-                    *bvh_fresh = false;
-                }
-            }
+        let Self { spec, layout, pairs, tubes, rods, jobs, contacts, .. } = self;
+        let f = FrameCtx { state, layout, bodies: &spec.bodies, origin: V3::new(state[0], state[1], state[2]), x: spec.precision as usize, alpha: spec.alpha, margin: spec.margin };
+        for t in tubes.iter_mut() {
+            t.cache.begin(layout.bodies[t.body].points, f.alpha);
+            t.bvh.begin();
         }
-        self.contacts.clear();
-        self.stats = FrameStats::default();
+        for r in rods.iter_mut() {
+            r.sampled = false;
+            r.bvh_fresh = false;
+        }
+        contacts.clear();
         let mut counters = Counters::default();
-        let margin = self.spec.margin;
         let params = SignedParams { refine: self.refine, nearest: self.nearest };
-        for pi in 0..self.pairs.len() {
-            let (a, b, kind) = self.pairs[pi];
-            let emit = Emit { pair: pi as u16, kind: kind as u8, body_a: a as u16, body_b: b as u16, origin, margin };
-            self.ensure_rod(a, state, origin, x, alpha, kind != ContactKind::Interior || self.spec.method == Method::Thesis);
-            if a != b && matches!(self.spec.bodies[b].shape, Shape::Rod { .. }) {
-                self.ensure_rod(b, state, origin, x, alpha, true);
-            }
-            let lb = self.layout.bodies[b];
-            let ps = &mut self.pair_state[pi];
-            match (kind, &self.spec.bodies[b].shape) {
-                (ContactKind::Interior, Shape::Tube { .. }) | (ContactKind::Exterior, Shape::Tube { .. }) => {
-                    let (rod_samples, rod_bvh, tube_state) = split_rod_tube(&mut self.bodies, a, b);
-                    let BodyState::Tube { cache, bvh } = tube_state else { unreachable!() };
-                    let t = TubeView::new(&state[lb.offset..lb.offset + lb.floats()], lb.points, lb.spokes, origin);
-                    if kind == ContactKind::Exterior {
-                        signed::exterior(&t, cache, bvh, rod_samples, rod_bvh, &mut ps.gaps, params, &emit, &mut self.contacts, &mut counters);
-                    } else if self.spec.method == Method::Thesis {
-                        counters.candidates += self.thesis.interior(&t, cache, rod_samples, &emit, &mut self.contacts);
-                    } else {
-                        if ps.tracks.len() != rod_samples.len() {
-                            ps.tracks.clear();
-                            ps.tracks.resize(rod_samples.len(), Track::default());
-                        }
-                        signed::interior(&t, cache, bvh, rod_samples, &mut ps.tracks, params, &emit, &mut self.contacts, &mut counters);
-                    }
+        for (pi, (job, p)) in jobs.iter_mut().zip(pairs.iter()).enumerate() {
+            let emit = Emit { pair: pi as u16, kind: p.kind as u8, body_a: p.a as u16, body_b: p.b as u16, origin: f.origin, margin: f.margin };
+            match job {
+                Job::RodInTube(j) => {
+                    rods[j.rod].ensure(&f, false);
+                    j.run(tubes[j.tube].frame(&f), &rods[j.rod].samples, params, &emit, contacts, &mut counters);
                 }
-                (_, Shape::Rod { .. }) => {
-                    if a == b {
-                        let BodyState::Rod { samples, bvh, .. } = &mut self.bodies[a] else { unreachable!() };
-                        // `fill` empties the arc lengths each frame; measure them once if needed.
-                        if samples.arc.len() != samples.len() {
-                            samples.measure_arc();
-                        }
-                        counters.candidates += rods::rod_rod(samples, bvh, samples, bvh, true, &mut ps.best, &emit, &mut self.contacts);
-                    } else {
-                        let (BodyState::Rod { samples: sa, bvh: ba, .. }, BodyState::Rod { samples: sb, bvh: bb, .. }) = (&self.bodies[a], &self.bodies[b]) else {
-                            unreachable!()
-                        };
-                        counters.candidates += rods::rod_rod(sa, ba, sb, bb, false, &mut ps.best, &emit, &mut self.contacts);
-                    }
+                Job::Thesis(j) => {
+                    rods[j.rod].ensure(&f, true);
+                    let TubeFrame { view, cache, .. } = tubes[j.tube].frame(&f);
+                    counters.candidates += j.run(&view, cache, &rods[j.rod].samples, &emit, contacts);
                 }
-                (ContactKind::SelfContact, Shape::Tube { .. }) => unreachable!("validated: self contact is rod-only"),
+                Job::RodOnTube(j) => {
+                    rods[j.rod].ensure(&f, true);
+                    j.run(tubes[j.tube].frame(&f), rods[j.rod].frame(), params, &emit, contacts, &mut counters);
+                }
+                Job::RodRod(j) => {
+                    rods[j.a].ensure(&f, true);
+                    rods[j.b].ensure(&f, true);
+                    counters.candidates += j.run(rods[j.a].frame(), rods[j.b].frame(), &emit, contacts);
+                }
+                Job::RodSelf(j) => {
+                    let rod = &mut rods[j.rod];
+                    rod.ensure(&f, true);
+                    counters.candidates += j.run(&mut rod.samples, &rod.bvh, &emit, contacts);
+                }
             }
         }
         self.stats = FrameStats { walked: counters.walked, reacquired: counters.reacquired, candidates: counters.candidates, planes: counters.planes, contacts: self.contacts.len() as u32 };
         &self.contacts
     }
-
-    /// Samples rod `i` once per frame, and builds its BVH when `with_bvh`.
-    fn ensure_rod(&mut self, i: usize, state: &[f32], origin: V3, x: usize, alpha: f32, with_bvh: bool) {
-        let l = self.layout.bodies[i];
-        let spec = &self.spec.bodies[i];
-        let margin = self.spec.margin;
-        let BodyState::Rod { samples, bvh, sampled, bvh_fresh } = &mut self.bodies[i] else { return };
-        if !*sampled {
-            let rod = RodView::new(&state[l.offset..l.offset + l.floats()], l.points, origin);
-            samples.fill(&rod, |j| spec.radius(j), x, alpha);
-            *sampled = true;
-        }
-        if with_bvh && !*bvh_fresh {
-            bvh.build(samples.cubic.len(), |j| samples.leaf(j, margin * 0.5));
-            *bvh_fresh = true;
-        }
-    }
-}
-
-/// Borrows rod `a`'s samples and BVH and tube `b`'s state at once (`a != b`).
-fn split_rod_tube(bodies: &mut [BodyState], a: usize, b: usize) -> (&RodSamples, &ChainBvh, &mut BodyState) {
-    let (ra, tb) = if a < b {
-        let (lo, hi) = bodies.split_at_mut(b);
-        (&lo[a], &mut hi[0])
-    } else {
-        let (lo, hi) = bodies.split_at_mut(a);
-        (&hi[0], &mut lo[b])
-    };
-    let BodyState::Rod { samples, bvh, .. } = ra else { unreachable!("validated: body a is a rod") };
-    (samples, bvh, tb)
 }

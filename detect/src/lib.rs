@@ -3,15 +3,14 @@
 //! ## Modules
 //! - [`model`]: tubes and rods as owned data, their file formats and checks.
 //! - [`spline`]: Catmull-Rom segments with the real knot sequence.
-//! - [`aabb`], [`bvh`]: boxes and the bottom-up chain BVH (broad phase).
+//! - [`broad`]: boxes, BVHs and each rod sample's place along a tube (broad phase).
 //! - [`samples`]: rod samples, `x` per segment.
 //! - [`section`]: tube coordinates and the signed gap to the wall.
 //! - [`nearest`]: the nearest point of the continuous wall, from a section reading.
-//! - [`narrow`]: the narrow phases (signed, thesis, rod-rod).
+//! - [`narrow`]: one job per pair, from located samples to contacts.
 //! - [`detector`]: the per-scene object that runs a frame.
 
-pub mod aabb;
-pub mod bvh;
+pub mod broad;
 pub mod detector;
 pub mod model;
 pub mod narrow;
@@ -23,7 +22,7 @@ pub mod view;
 
 pub use detector::{Detector, FrameStats};
 pub use lumen_proto as proto;
-pub use lumen_proto::{Contact, ContactKind, InputError, Method, SceneSpec, SpecError};
+pub use lumen_proto::{Contact, ContactKind, InputError, Method, SceneSpec, SpecError, ValidScene};
 pub use model::{Body, Rod, Scene, Tube};
 
 /// The vector type of the pipeline: `f32`, in the scene's unit.

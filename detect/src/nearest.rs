@@ -170,90 +170,30 @@ pub const OTHER_ANGLE_DEG: f32 = 30.0;
 /// descend from the pockets of the wall around the point ([`scan_pockets`], which says why the
 /// ends), and, where no other wall is found yet, from the nearest seeds facing the point from
 /// another direction. Elsewhere along the rod a wall ahead of a sample lies in the next
-/// sample's section; searching there too found nothing more in the colonoscopy and cost
-/// 12% on the real colon's benchmark.
+/// sample's section; searching there too found nothing more in the colonoscopy, at a cost
+/// (docs/decisions/detect.md).
 pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32, within: f32, scan: bool) -> Near {
+    let side = if from.outside { 1.0 } else { -1.0 };
+    let mut probe = Probe { t, cache, p, tol: 1e-4 * from.size.max(1e-6), side };
     let start = Patch { seg: from.seg, k: from.k, u: from.u.clamp(0.0, 1.0), l: from.l.clamp(0.0, 1.0) };
-    let s0 = local(t, cache, start);
-    let r0 = p - s0.s;
-    let tol = 1e-4 * from.size.max(1e-6);
-    let floor = r0.dot(&s0.su).abs() <= FLOOR_COS * r0.norm() * s0.su.norm();
+    let s0 = probe.local(start);
     // The ends of descents that lost to `end`: candidates for other walls.
     let mut spare: [Option<End>; 2 + SCAN_SEEDS] = [None; 2 + SCAN_SEEDS];
-    let mut end = if floor {
-        let up = descend(t, cache, p, start, s0, Some(FLOOR_STEP), tol, ITERATIONS);
-        let down = descend(t, cache, p, start, s0, Some(-FLOOR_STEP), tol, ITERATIONS);
-        let (win, lose) = if down.d2 < up.d2 { (down, up) } else { (up, down) };
-        spare[0] = Some(lose);
-        win
-    } else {
-        // The foot on the wall's tangent plane lies, to first order, as far along the tube as
-        // the nearest point: start there where that is nearer (fewer steps across rings).
-        let (start, s0) = match cache.axial(t, &from.wall, from.seg, 4) {
-            Axial::In { seg, u } if seg != start.seg || (u - start.u).abs() > 0.05 => {
-                let alt = Patch { seg, u, ..start };
-                let sa = local(t, cache, alt);
-                if (p - sa.s).norm_squared() < r0.norm_squared() {
-                    (alt, sa)
-                } else {
-                    (start, s0)
-                }
-            }
-            _ => (start, s0),
-        };
-        descend(t, cache, p, start, s0, None, tol, ITERATIONS)
-    };
-    let side = if from.outside { 1.0 } else { -1.0 };
+    let mut end = probe.first_descent(&from, start, s0, &mut spare[0]);
     let within = if from.outside { 0.0 } else { within };
     // Seeds facing the point (see the module's "Seeds"), nearer than the first descent ended
     // or, where other walls are sought, near enough to descend to one.
     let mut seeds = Seeds { at: [None; SEED_SLOTS], n: 0 };
     let mut n_own = 0;
     if reach > 0.0 {
-        let b = t.spokes;
         let keep2 = if within > 0.0 { end.d2.max((within + reach) * (within + reach)) } else { end.d2 };
-        let axis = (cache.ring(t, from.seg).n * (1.0 - start.u) + cache.ring(t, from.seg + 1).n * start.u).try_normalize(0.0);
-        let consider = |cache: &mut TubeCache, seeds: &mut Seeds, seg: usize, u: f32| {
-            for (k, l) in [(prev(start.k, b), 0.5), (start.k, start.l), (next(start.k, b), 0.5)] {
-                let at = Patch { seg, u, k, l };
-                let here = local(t, cache, at);
-                let d2 = (p - here.s).norm_squared();
-                if here.faces(p, cache.ring(t, seg).o, side) && d2 < keep2 && seeds.n < SEED_SLOTS {
-                    seeds.at[seeds.n] = Some((at, here, d2));
-                    seeds.n += 1;
-                }
-            }
-        };
-        consider(cache, &mut seeds, start.seg, start.u);
-        n_own = seeds.n;
-        if let Some(axis) = axis {
-            for f in SEEDS {
-                if let Axial::In { seg, u } = cache.axial(t, &(p + axis * (reach * f)), from.seg, SEED_WINDOW) {
-                    consider(cache, &mut seeds, seg, u);
-                }
-            }
-        }
-        // The second descent, from the nearest seed, where that is nearer than the first ended.
-        let nearest_seed = (0..seeds.n).filter_map(|i| seeds.at[i].map(|s| (i, s))).filter(|(_, s)| s.2 < end.d2).min_by(|a, b| a.1 .2.total_cmp(&b.1 .2));
-        if let Some((i, (at, here, _))) = nearest_seed {
-            seeds.at[i] = None;
-            let other = descend(t, cache, p, at, here, None, tol, ITERATIONS);
-            if other.d2 < end.d2 {
-                spare[1] = Some(std::mem::replace(&mut end, other));
-            } else {
-                spare[1] = Some(other);
-            }
-        }
+        n_own = probe.gather_seeds(&mut seeds, &from, start, reach, keep2);
+        spare[1] = probe.second_descent(&mut seeds, &mut end);
         if scan {
-            // The rod's end: a descent from each pocket of the wall around it (see `scan_pockets`).
-            let found = scan_pockets(t, cache, p, &from, start.k, reach + within, side);
-            for (slot, (at, here)) in spare[2..].iter_mut().zip(found.into_iter().flatten()) {
-                let other = descend(t, cache, p, at, here, None, tol, OTHER_ITERATIONS);
-                *slot = Some(if other.d2 < end.d2 { std::mem::replace(&mut end, other) } else { other });
-            }
+            probe.pocket_descents(&from, start.k, reach + within, &mut end, &mut spare[2..]);
         }
     }
-    let Some((normal, dist)) = judge(t, cache, p, &end, side, tol) else {
+    let Some((normal, dist)) = judge(&mut probe, &end) else {
         // Not a wall facing the way the side says (a fold seen from behind): the section's own
         // reading stands, at the distance of its foot on the wall.
         return Near { first: Gap { sd: side * (p - s0.s).norm(), ..from }, others: [None; MAX_OTHERS] };
@@ -263,63 +203,201 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         return Near { first, others: [None; MAX_OTHERS] };
     }
     let cos = OTHER_ANGLE_DEG.to_radians().cos();
-    // A wall within reach: only a minimum (a descent cut short ends on a slope, at no wall the
-    // point faces), facing the point.
-    let wall_of = |cache: &mut TubeCache, e: End| {
+    let mut found = Walls { at: [None; CANDIDATES], n: 0 };
+    for e in spare.into_iter().flatten() {
+        if let Some(w) = probe.wall_of(e, within) {
+            found.push(w);
+        }
+    }
+    if scan {
+        probe.other_way_descents(&mut seeds, n_own, start.k, normal, within, &mut found);
+    }
+    Near { first, others: pick_others(&from, &mut found.at[..found.n], normal, cos) }
+}
+
+/// The wall being searched and the point searched from: what every descent reads.
+struct Probe<'a> {
+    t: &'a TubeView<'a>,
+    cache: &'a mut TubeCache,
+    p: &'a V3,
+    /// A step shorter than this ends a descent (scene's unit; relative to the section's size).
+    tol: f32,
+    /// -1: the point is inside the wall (its section says), +1: outside.
+    side: f32,
+}
+
+/// Walls found at the ends of descents (end, normal, distance), the first `n` slots filled.
+struct Walls {
+    at: [Option<(End, V3, f32)>; CANDIDATES],
+    n: usize,
+}
+
+impl Walls {
+    /// Adds a wall.
+    fn push(&mut self, w: (End, V3, f32)) {
+        self.at[self.n] = Some(w);
+        self.n += 1;
+    }
+}
+
+/// Which coordinates of a descent are pinned on a crease: -1 / +1 its lower / upper edge, 0 free.
+#[derive(Clone, Copy, Default)]
+struct Pins {
+    u: i8,
+    l: i8,
+}
+
+impl Probe<'_> {
+    /// The wall at patch point `at`.
+    #[inline]
+    fn local(&mut self, at: Patch) -> Local {
+        local(self.t, self.cache, at)
+    }
+
+    /// The first descent: both ways along the tube from a floor or a crest (the foot's slope
+    /// does not tell which way the nearest flank lies; the losing end goes to `lost`), else
+    /// from the nearer of the foot `start` (the wall there `s0`) and the tangent plane's foot.
+    fn first_descent(&mut self, from: &Gap, start: Patch, s0: Local, lost: &mut Option<End>) -> End {
+        let r0 = self.p - s0.s;
+        let floor = r0.dot(&s0.su).abs() <= FLOOR_COS * r0.norm() * s0.su.norm();
+        if floor {
+            let up = descend(self, start, s0, Some(FLOOR_STEP), ITERATIONS);
+            let down = descend(self, start, s0, Some(-FLOOR_STEP), ITERATIONS);
+            let (win, lose) = if down.d2 < up.d2 { (down, up) } else { (up, down) };
+            *lost = Some(lose);
+            win
+        } else {
+            // The foot on the wall's tangent plane lies, to first order, as far along the tube as
+            // the nearest point: start there where that is nearer (fewer steps across rings).
+            let (start, s0) = match self.cache.axial(self.t, &from.wall, from.seg, 4) {
+                Axial::In { seg, u } if seg != start.seg || (u - start.u).abs() > 0.05 => {
+                    let alt = Patch { seg, u, ..start };
+                    let sa = self.local(alt);
+                    if (self.p - sa.s).norm_squared() < r0.norm_squared() {
+                        (alt, sa)
+                    } else {
+                        (start, s0)
+                    }
+                }
+                _ => (start, s0),
+            };
+            descend(self, start, s0, None, ITERATIONS)
+        }
+    }
+
+    /// Fills `seeds` with wall points facing the point within `keep2` (squared): the strips
+    /// about `start`'s in its own section, then in the sections [`SEEDS`] `reach`es along the
+    /// tube; returns how many lie in its own section.
+    fn gather_seeds(&mut self, seeds: &mut Seeds, from: &Gap, start: Patch, reach: f32, keep2: f32) -> usize {
+        let (t, p) = (self.t, self.p);
+        let axis = (self.cache.ring(t, from.seg).n * (1.0 - start.u) + self.cache.ring(t, from.seg + 1).n * start.u).try_normalize(0.0);
+        self.consider(seeds, start, start.seg, start.u, keep2);
+        let n_own = seeds.n;
+        if let Some(axis) = axis {
+            for f in SEEDS {
+                if let Axial::In { seg, u } = self.cache.axial(t, &(p + axis * (reach * f)), from.seg, SEED_WINDOW) {
+                    self.consider(seeds, start, seg, u, keep2);
+                }
+            }
+        }
+        n_own
+    }
+
+    /// Adds to `seeds` the three strips about `start`'s at `(seg, u)` that face the point
+    /// within `keep2` (squared).
+    fn consider(&mut self, seeds: &mut Seeds, start: Patch, seg: usize, u: f32, keep2: f32) {
+        let b = self.t.spokes;
+        for (k, l) in [(prev(start.k, b), 0.5), (start.k, start.l), (next(start.k, b), 0.5)] {
+            let at = Patch { seg, u, k, l };
+            let here = self.local(at);
+            let d2 = (self.p - here.s).norm_squared();
+            if here.faces(self.p, self.cache.ring(self.t, seg).o, self.side) && d2 < keep2 && seeds.n < SEED_SLOTS {
+                seeds.at[seeds.n] = Some((at, here, d2));
+                seeds.n += 1;
+            }
+        }
+    }
+
+    /// The second descent, from the nearest seed, where that is nearer than `end`: the nearer
+    /// of the two ends becomes `end`; returns the other.
+    fn second_descent(&mut self, seeds: &mut Seeds, end: &mut End) -> Option<End> {
+        let nearest_seed = (0..seeds.n).filter_map(|i| seeds.at[i].map(|s| (i, s))).filter(|(_, s)| s.2 < end.d2).min_by(|a, b| a.1 .2.total_cmp(&b.1 .2));
+        let (i, (at, here, _)) = nearest_seed?;
+        seeds.at[i] = None;
+        let other = descend(self, at, here, None, ITERATIONS);
+        Some(if other.d2 < end.d2 { std::mem::replace(end, other) } else { other })
+    }
+
+    /// For the rod's ends: a descent from each pocket of the wall within `dist` around the point
+    /// (see [`scan_pockets`]); the nearest end becomes `end`, the others fill `spare`.
+    fn pocket_descents(&mut self, from: &Gap, k0: usize, dist: f32, end: &mut End, spare: &mut [Option<End>]) {
+        let found = scan_pockets(self, from, k0, dist);
+        for (slot, (at, here)) in spare.iter_mut().zip(found.into_iter().flatten()) {
+            let other = descend(self, at, here, None, OTHER_ITERATIONS);
+            *slot = Some(if other.d2 < end.d2 { std::mem::replace(end, other) } else { other });
+        }
+    }
+
+    /// A wall within `within` at the end of a descent: only a minimum (a descent cut short ends
+    /// on a slope, at no wall the point faces), facing the point; with its normal and distance.
+    fn wall_of(&mut self, e: End, within: f32) -> Option<(End, V3, f32)> {
         if !e.settled {
             return None;
         }
-        let (n, d) = judge(t, cache, p, &e, side, tol)?;
+        let (n, d) = judge(self, &e)?;
         (d < within).then_some((e, n, d))
-    };
-    let mut found: [Option<(End, V3, f32)>; CANDIDATES] = [None; CANDIDATES];
-    let mut n_found = 0;
-    for e in spare.into_iter().flatten() {
-        if let Some(w) = wall_of(cache, e) {
-            found[n_found] = Some(w);
-            n_found += 1;
-        }
     }
-    // At the rod's ends, where the descents so far found no other wall: descents from the seeds
-    // along the tube, on the foot's own strip, on a wall turned from the first and facing the
-    // point from another direction, nearest first, one per section (the neighbouring strips'
-    // seeds lie on the first wall's sides, and a seed on a wall running on as the first's
-    // does, a smooth tube's, is the first wall: descents from them slide back to it).
-    for _ in 0..if scan { OTHER_TRIES } else { 0 } {
-        if found[..n_found].iter().flatten().any(|w| w.1.dot(&normal) < cos) {
-            break;
-        }
-        let other_way = seeds.at[n_own..seeds.n]
-            .iter()
-            .flatten()
-            .filter(|s| s.0.k == start.k && (p - s.1.s).dot(&normal) * side < cos * s.2.sqrt() && turned(&s.1.outward(cache.ring(t, s.0.seg).o), &normal, cos))
-            .min_by(|a, b| a.2.total_cmp(&b.2));
-        let Some(&(at, here, _)) = other_way else { break };
-        for s in seeds.at[n_own..seeds.n].iter_mut() {
-            if s.is_some_and(|s| s.0.seg == at.seg && s.0.u == at.u) {
-                *s = None;
+
+    /// At the rod's ends, where the descents so far found no other wall: descents from the seeds
+    /// along the tube, on the foot's own strip (`k0`), on a wall turned from the first (`normal`)
+    /// and facing the point from another direction, nearest first, one per section (the
+    /// neighbouring strips' seeds lie on the first wall's sides, and a seed on a wall running on
+    /// as the first's does, a smooth tube's, is the first wall: descents from them slide back
+    /// to it). The walls they end on within `within` are added to `found`.
+    fn other_way_descents(&mut self, seeds: &mut Seeds, n_own: usize, k0: usize, normal: V3, within: f32, found: &mut Walls) {
+        let cos = OTHER_ANGLE_DEG.to_radians().cos();
+        let (t, p, side) = (self.t, self.p, self.side);
+        for _ in 0..OTHER_TRIES {
+            if found.at[..found.n].iter().flatten().any(|w| w.1.dot(&normal) < cos) {
+                break;
+            }
+            let cache = &mut *self.cache;
+            let other_way = seeds.at[n_own..seeds.n]
+                .iter()
+                .flatten()
+                .filter(|s| s.0.k == k0 && (p - s.1.s).dot(&normal) * side < cos * s.2.sqrt() && turned(&s.1.outward(cache.ring(t, s.0.seg).o), &normal, cos))
+                .min_by(|a, b| a.2.total_cmp(&b.2));
+            let Some(&(at, here, _)) = other_way else { break };
+            for s in seeds.at[n_own..seeds.n].iter_mut() {
+                if s.is_some_and(|s| s.0.seg == at.seg && s.0.u == at.u) {
+                    *s = None;
+                }
+            }
+            let e = descend(self, at, here, None, OTHER_ITERATIONS);
+            if let Some(w) = self.wall_of(e, within) {
+                found.push(w);
             }
         }
-        let e = descend(t, cache, p, at, here, None, tol, OTHER_ITERATIONS);
-        if let Some(w) = wall_of(cache, e) {
-            found[n_found] = Some(w);
-            n_found += 1;
-        }
     }
-    // Nearest first, each wall facing the point from a direction more than the angle from the
-    // first's and every other's taken (two descents that end on one wall end within degrees).
-    found[..n_found].sort_unstable_by(|a, b| a.map_or(f32::INFINITY, |w| w.2).total_cmp(&b.map_or(f32::INFINITY, |w| w.2)));
+}
+
+/// The other walls of [`Near::others`] from the walls `found`: nearest first, each facing the
+/// point from a direction more than the angle whose cosine is `cos` from the first's (`normal`)
+/// and every other's taken (two descents that end on one wall end within degrees).
+fn pick_others(from: &Gap, found: &mut [Option<(End, V3, f32)>], normal: V3, cos: f32) -> [Option<Gap>; MAX_OTHERS] {
+    found.sort_unstable_by(|a, b| a.map_or(f32::INFINITY, |w| w.2).total_cmp(&b.map_or(f32::INFINITY, |w| w.2)));
+    let side = if from.outside { 1.0 } else { -1.0 };
     let mut taken = [normal; 1 + MAX_OTHERS];
     let mut others = [None; MAX_OTHERS];
     let mut n_taken = 1;
-    for (e, n, d) in found[..n_found].iter().flatten() {
+    for (e, n, d) in found.iter().flatten() {
         if n_taken <= MAX_OTHERS && taken[..n_taken].iter().all(|m| n.dot(m) < cos) {
-            others[n_taken - 1] = Some(gap_at(&from, e, *n, side * d));
+            others[n_taken - 1] = Some(gap_at(from, e, *n, side * d));
             taken[n_taken] = *n;
             n_taken += 1;
         }
     }
-    Near { first, others }
+    others
 }
 
 /// Whether the wall's outward normal `out` (unnormalised) is turned from the unit `normal` by
@@ -333,7 +411,8 @@ fn turned(out: &V3, normal: &V3, cos: f32) -> bool {
 /// the point and the wall point, outward (from the wall to an outside point, from an inside
 /// point to the wall), or the wall's own normal where the point is on it; `None` where the wall
 /// there faces the other way (a fold of the surface seen from behind).
-fn judge(t: &TubeView, cache: &mut TubeCache, p: &V3, e: &End, side: f32, tol: f32) -> Option<(V3, f32)> {
+fn judge(pr: &mut Probe, e: &End) -> Option<(V3, f32)> {
+    let (t, cache, p, side, tol) = (pr.t, &mut *pr.cache, pr.p, pr.side, pr.tol);
     let dist = e.d2.sqrt();
     let wall_out = e.here.outward(cache.ring(t, e.at.seg).o);
     let normal = if dist > tol { (p - e.here.s) * (side / dist) } else { wall_out.try_normalize(0.0)? };
@@ -354,15 +433,16 @@ pub const SCAN_SEEDS: usize = 4;
 /// The wall's pockets around `p`, for the rod's ends: the nearest wall corner (ring `i`, spoke
 /// `k`: `C_i + V_ik`) on each ring within `dist` of `p`'s own along the tube (and within a
 /// quarter turn of its strip `k0`), and of those, the rings nearer than both neighbours: up to
-/// [`SCAN_SEEDS`], nearest first, each on a wall facing `p` (`side` as in [`nearest`]).
+/// [`SCAN_SEEDS`], nearest first, each on a wall facing the probe's point from its side.
 ///
 /// Why the ends: the wall ahead of the scope's end (a fold's front within its radius along the
 /// tube) lies in no section a sample reads, and the distance to it has several local minima
 /// there (the side wall, a fold's valley, the fold's front a few rings further), more than the
-/// seeds of [`nearest`] tell apart: on the GCA colon the end stood 0.1 mm into a fold's front
-/// while its seeds' descents ended on the side wall and in the valley before it. Two samples
-/// per rod, a few hundred corners each: cheap.
-fn scan_pockets(t: &TubeView, cache: &mut TubeCache, p: &V3, from: &Gap, k0: usize, dist: f32, side: f32) -> [Option<(Patch, Local)>; SCAN_SEEDS] {
+/// seeds of [`nearest`] tell apart: their descents can end on the side wall and in the valley
+/// while the end stands in the fold's front (docs/decisions/detect.md). Two samples per rod, a
+/// few hundred corners each: cheap.
+fn scan_pockets(pr: &mut Probe, from: &Gap, k0: usize, dist: f32) -> [Option<(Patch, Local)>; SCAN_SEEDS] {
+    let (t, cache, p, side) = (pr.t, &mut *pr.cache, pr.p, pr.side);
     let (b, last) = (t.spokes, t.segments() - 1);
     let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
     let reach = ((dist / spacing).ceil() as usize).min(SCAN_RINGS);
@@ -435,11 +515,10 @@ const SEED_SLOTS: usize = 3 * (1 + SEEDS.len());
 
 /// Descends from `at` (where the wall is `here`) as the module says; `first_du`, if given,
 /// replaces the first step (along the tube only).
-#[allow(clippy::too_many_arguments)]
-fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here: Local, first_du: Option<f32>, tol: f32, iterations: usize) -> End {
+fn descend(pr: &mut Probe, mut at: Patch, mut here: Local, first_du: Option<f32>, iterations: usize) -> End {
+    let (p, tol) = (pr.p, pr.tol);
     let mut d2 = (p - here.s).norm_squared();
-    // A coordinate pinned on a crease: -1 / +1 its lower / upper edge, 0 free.
-    let (mut pin_u, mut pin_l) = (0i8, 0i8);
+    let mut pin = Pins::default();
     let mut settled = false;
     for it in 0..iterations {
         let r = p - here.s;
@@ -448,7 +527,7 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         let (nuu, nul) = (uu - r.dot(&here.suu), ul - r.dot(&here.sul));
         // Newton where H is positive definite, Gauss-Newton where not.
         let (huu, hul) = if nuu > 0.0 && nuu * ll - nul * nul > 0.0 { (nuu, nul) } else { (uu, ul) };
-        let (mut du, mut dl) = match (pin_u != 0, pin_l != 0) {
+        let (mut du, mut dl) = match (pin.u != 0, pin.l != 0) {
             (true, true) => {
                 settled = true;
                 break;
@@ -483,7 +562,7 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         if f <= EDGE {
             // Already on the edge the step leaves by (a descent started on a ring or a spoke's
             // tip line): over it without moving, or pin it.
-            (at, here) = across_edges(t, cache, p, at, here, eu, el, &mut pin_u, &mut pin_l);
+            (at, here) = across_edges(pr, at, here, eu, el, &mut pin);
             continue;
         }
         let (mut du, mut dl) = (du * f, dl * f);
@@ -495,7 +574,7 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
                 _ => (x + d).clamp(0.0, 1.0),
             };
             let cand = Patch { u: on(at.u, du, eu), l: on(at.l, dl, el), ..at };
-            let next = local(t, cache, cand);
+            let next = pr.local(cand);
             let nd2 = (p - next.s).norm_squared();
             if nd2 < d2 {
                 moved = Some((cand, next, nd2));
@@ -515,7 +594,7 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
         at = cand;
         here = next;
         d2 = nd2;
-        (at, here) = across_edges(t, cache, p, at, here, eu, el, &mut pin_u, &mut pin_l);
+        (at, here) = across_edges(pr, at, here, eu, el, &mut pin);
         if step2 <= tol * tol {
             settled = true;
             break;
@@ -527,23 +606,22 @@ fn descend(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here:
 /// On the edges a step wanted to cross (`eu`, `el`: -1 lower, +1 upper, 0 none): goes on in the
 /// neighbouring patch if the descent goes on into it; if it would come straight back, the edge
 /// is a crease: pins it.
-#[allow(clippy::too_many_arguments)]
-fn across_edges(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut here: Local, eu: i8, el: i8, pin_u: &mut i8, pin_l: &mut i8) -> (Patch, Local) {
-    let b = t.spokes;
+fn across_edges(pr: &mut Probe, mut at: Patch, mut here: Local, eu: i8, el: i8, pin: &mut Pins) -> (Patch, Local) {
+    let b = pr.t.spokes;
     if el != 0 {
         let across = if el < 0 { Patch { k: prev(at.k, b), l: 1.0, ..at } } else { Patch { k: next(at.k, b), l: 0.0, ..at } };
-        match goes_on(t, cache, p, across, el, |w| w.sl) {
+        match goes_on(pr, across, el, |w| w.sl) {
             Some(there) => (at, here) = (across, there),
-            None => *pin_l = el,
+            None => pin.l = el,
         }
     }
     if eu != 0 {
-        let last = t.segments() - 1;
+        let last = pr.t.segments() - 1;
         let seg = if eu < 0 { at.seg.checked_sub(1) } else { (at.seg < last).then_some(at.seg + 1) };
         let across = seg.map(|seg| Patch { seg, u: if eu < 0 { 1.0 } else { 0.0 }, ..at });
-        match across.and_then(|a| goes_on(t, cache, p, a, eu, |w| w.su).map(|there| (a, there))) {
+        match across.and_then(|a| goes_on(pr, a, eu, |w| w.su).map(|there| (a, there))) {
             Some((a, there)) => (at, here) = (a, there),
-            None => *pin_u = eu,
+            None => pin.u = eu,
         }
     }
     (at, here)
@@ -552,9 +630,9 @@ fn across_edges(t: &TubeView, cache: &mut TubeCache, p: &V3, mut at: Patch, mut 
 /// The wall at `across`, the patch beyond an edge the descent reached on side `e` (-1 lower,
 /// +1 upper), if the descent goes on into it: if `p`'s gradient along the crossed coordinate
 /// (`along`: `S_u` or `S_l`) points further in.
-fn goes_on(t: &TubeView, cache: &mut TubeCache, p: &V3, across: Patch, e: i8, along: fn(&Local) -> V3) -> Option<Local> {
-    let there = local(t, cache, across);
-    let g = (p - there.s).dot(&along(&there));
+fn goes_on(pr: &mut Probe, across: Patch, e: i8, along: fn(&Local) -> V3) -> Option<Local> {
+    let there = pr.local(across);
+    let g = (pr.p - there.s).dot(&along(&there));
     ((e < 0 && g < 0.0) || (e > 0 && g > 0.0)).then_some(there)
 }
 

@@ -4,7 +4,7 @@
 //! one more sample, so a rod of `A` points has `(A - 1) * x + 1` samples. Radii are interpolated
 //! linearly between control points.
 
-use crate::aabb::Aabb;
+use crate::broad::aabb::Aabb;
 use crate::spline::Cubic;
 use crate::view::RodView;
 use crate::V3;

@@ -265,8 +265,8 @@ impl TubeCache {
     }
 
     /// Signed distance of `p` to ring `i`'s plane (positive on the side the midline goes on).
-    /// Always inlined: a walk reads three or four planes a sample, and a call cost more than the
-    /// cached plane's dot product (measured: 121.7 -> 117.6 us a default frame).
+    /// Always inlined: a walk reads three or four planes a sample, and a call costs more than the
+    /// cached plane's dot product (docs/decisions/detect.md).
     #[inline(always)]
     fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
         let r = self.ring(t, i);

@@ -17,7 +17,7 @@
 //! reflection of the segment (as at the two ends of a body, where `P0` or `P3` is missing), and
 //! a zero-length segment is the constant point.
 
-use crate::aabb::Aabb;
+use crate::broad::aabb::Aabb;
 use crate::V3;
 
 /// One cubic segment `C(u) = c[0] + c[1] u + c[2] u^2 + c[3] u^3`, `u` in [0, 1].

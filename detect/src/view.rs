@@ -4,7 +4,7 @@
 //! scene far from the world origin loses no precision inside the pipeline: subtracting two
 //! nearby `f32` values is exact, and all further arithmetic is on small numbers.
 
-use crate::aabb::Aabb;
+use crate::broad::aabb::Aabb;
 use crate::V3;
 
 /// A tube: `rings` control points, each followed by `spokes` radial vectors.

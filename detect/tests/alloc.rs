@@ -49,7 +49,7 @@ fn no_allocation_per_frame_after_warm_up() {
                 .method(method)
                 .nearest(nearest)
         };
-        let mut d = Detector::new(&scene_at(0).spec()).unwrap();
+        let mut d = Detector::new(&scene_at(0).spec().validate().unwrap());
         let states: Vec<Vec<f32>> = (0..40).map(|f| scene_at(f).state()).collect();
         // Warm up on the frame with the most contacts so every buffer reaches its size.
         for s in &states {

@@ -34,7 +34,7 @@ fn a_sample_reported_outside_is_outside_every_section_that_brackets_it() {
         let pts: Vec<[f32; 3]> = (0..15).map(|i| [20.0 + 2.0 * i as f32, y, z]).collect();
         let scope = rod(pts, 0.5);
         let scene = interior(colon.clone(), scope, 1, Method::Signed);
-        let mut d = Detector::new(&scene.spec()).unwrap();
+        let mut d = Detector::new(&scene.spec().validate().unwrap());
         for c in d.detect(&scene.state()).unwrap() {
             // The sample: the rod's surface point less the radius along the normal.
             let p = V3::from(c.point_a) - V3::from(c.normal) * 0.5;

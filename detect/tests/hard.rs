@@ -185,8 +185,8 @@ fn hard_crossing_the_wall_back_and_forth() {
     let colon = straight(20, 5.0, 10.0, 16);
     let mk = |y: f32, m| interior(colon.clone(), line([10.0, y, 0.0], [80.0, y, 0.0], 8, 3.0), 1, m);
     let spec = mk(4.0, Method::Signed).spec();
-    let mut signed = Detector::new(&spec).unwrap();
-    let mut thesis = Detector::new(&mk(4.0, Method::Thesis).spec()).unwrap();
+    let mut signed = Detector::new(&spec.validate().unwrap());
+    let mut thesis = Detector::new(&mk(4.0, Method::Thesis).spec().validate().unwrap());
     let mut thesis_flips = 0;
     let mut prev_thesis: Option<[f32; 3]> = None;
     for f in 0..200 {
@@ -390,7 +390,7 @@ fn hard_uniform_scaling_mm_to_m() {
 #[test]
 fn hard_nan_or_inf_in_any_input() {
     let scene = interior(straight(10, 5.0, 10.0, 8), line([1.0, 7.0, 0.0], [40.0, 7.0, 0.0], 6, 4.0), 2, Method::Signed);
-    let mut d = Detector::new(&scene.spec()).unwrap();
+    let mut d = Detector::new(&scene.spec().validate().unwrap());
     let good = scene.state();
     let n_good = d.detect(&good).unwrap().len();
     assert!(n_good > 0);
@@ -419,7 +419,7 @@ fn hard_counts_beyond_limits() {
     let rod = BodySpec { name: "scope".into(), shape: Shape::Rod { points: 4, radius: vec![1.0] } };
     let pair = vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }];
     let spec = |shape| SceneSpec::new(vec![body(shape), rod.clone()], pair.clone());
-    let err = |s: SceneSpec| Detector::new(&s).err().expect("rejected");
+    let err = |s: SceneSpec| s.validate().expect_err("rejected");
     assert!(matches!(err(spec(Shape::Tube { rings: 65_537, spokes: 8 })), SpecError::PointCount { count: 65_537, .. }));
     assert!(matches!(err(spec(Shape::Tube { rings: 1, spokes: 8 })), SpecError::PointCount { count: 1, .. }));
     assert!(matches!(err(spec(Shape::Tube { rings: 10, spokes: 257 })), SpecError::SpokeCount { count: 257, .. }));
@@ -514,7 +514,7 @@ fn hard_only_declared_pairs_are_computed() {
     let colon = straight(10, 5.0, 10.0, 16);
     let scope = line([5.0, 30.0, 0.0], [40.0, 30.0, 0.0], 6, 3.0);
     let scene = Scene::new().tube("colon", colon).rod("scope", scope).pair("scope", "scope", ContactKind::SelfContact);
-    let mut d = Detector::new(&scene.spec()).unwrap();
+    let mut d = Detector::new(&scene.spec().validate().unwrap());
     assert!(d.detect(&scene.state()).unwrap().is_empty(), "the rod is far outside, but interior was not declared");
     assert_eq!(d.stats().walked + d.stats().reacquired, 0, "and no tube work was done");
 }

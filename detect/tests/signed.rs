@@ -119,7 +119,7 @@ fn slid(colon: &lumen_detect::Tube, f: usize) -> lumen_detect::Scene {
 #[test]
 fn coherence_walks_instead_of_reacquiring() {
     let colon = straight(200, 1.0, 20.0, 32);
-    let mut d = Detector::new(&slid(&colon, 0).spec()).unwrap();
+    let mut d = Detector::new(&slid(&colon, 0).spec().validate().unwrap());
     for f in 0..50 {
         let n = d.detect(&slid(&colon, f).state()).unwrap().len();
         assert_eq!(n, 33);
@@ -138,7 +138,7 @@ fn the_walk_starts_where_the_sample_before_moved() {
     // 4 planes a frame. The first sample walks them; every other one starts where the sample
     // before it moved, so the frame crosses about 4 planes, not 4 per sample.
     let colon = straight(801, 0.25, 20.0, 32);
-    let mut d = Detector::new(&slid(&colon, 0).spec()).unwrap();
+    let mut d = Detector::new(&slid(&colon, 0).spec().validate().unwrap());
     for f in 0..20 {
         assert_eq!(d.detect(&slid(&colon, f).state()).unwrap().len(), 33);
         let st = d.stats();

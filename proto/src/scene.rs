@@ -15,6 +15,7 @@
 use crate::contact::ContactKind;
 use crate::error::SpecError;
 use crate::limits::*;
+use crate::valid::{PairIndex, ValidScene};
 use serde::{Deserialize, Serialize};
 
 /// Everything the pipeline needs to know that does not change per frame.
@@ -40,17 +41,18 @@ pub struct SceneSpec {
     pub method: Method,
     /// `signed` only: move each contact from its sample's own cross-section to the nearest
     /// point of the continuous wall (exact depth and the distance's own direction as normal,
-    /// continuous as the sample moves; about 3.3 times the default's detection time in `lumen bench detect`). Off by default:
+    /// continuous as the sample moves; several times the default's detection time, see
+    /// docs/decisions/detect.md). Off by default:
     /// on a wall that folds (ring planes crossing inside the lumen at bends tighter than the
     /// tube is wide) the cross-section's reading is the one a physics engine stays stable on.
     #[serde(default)]
     pub nearest: bool,
     /// `signed` only: axial re-projections of every sample's section reading (0 to 4, default
     /// 0). Each moves the section to the foot of the last reading and reads the sample again
-    /// there, which removes most of the error of a wall sloped along the tube (on the generated
-    /// colon, depth error p99 0.040 -> 0.010 mm and normal error p99 4.0 -> 2.5 degrees with 1)
-    /// for about 1.6 times the detection time: every sample is read in full, where without it
-    /// a sample clear of the wall stops at its sector.
+    /// there, which removes most of the error of a wall sloped along the tube (depth in the
+    /// scene's unit, normal in degrees; figures in docs/decisions/detect.md), at the cost of
+    /// reading every sample in full, where without it a sample clear of the wall stops at its
+    /// sector.
     #[serde(default)]
     pub refine: u32,
 }
@@ -175,8 +177,15 @@ impl SceneSpec {
         self.bodies.iter().position(|b| b.name == name)
     }
 
+    /// Checks every count, limit and pair; returns the scene with its pairs resolved to body
+    /// indices and its state layout, computed once.
+    pub fn validate(&self) -> Result<ValidScene, SpecError> {
+        let pairs = self.resolve()?;
+        Ok(ValidScene::new(self.clone(), pairs))
+    }
+
     /// Checks every count, limit and pair; returns the pairs resolved to body indices.
-    pub fn validate(&self) -> Result<Vec<(usize, usize, ContactKind)>, SpecError> {
+    pub(crate) fn resolve(&self) -> Result<Vec<PairIndex>, SpecError> {
         if self.bodies.is_empty() {
             return Err(SpecError::NoBodies);
         }
@@ -227,7 +236,7 @@ impl SceneSpec {
             if self.pairs[..p].iter().any(|q| q.a == pair.a && q.b == pair.b && q.kind == pair.kind) {
                 return bad("declared twice");
             }
-            resolved.push((a, b, pair.kind));
+            resolved.push(PairIndex { a, b, kind: pair.kind });
         }
         Ok(resolved)
     }
@@ -254,7 +263,7 @@ mod tests {
             "pairs":[{"a":"scope","b":"colon","kind":"interior"}]}"#;
         let parsed: SceneSpec = serde_json::from_str(json).unwrap();
         assert_eq!(parsed, spec());
-        assert_eq!(parsed.validate().unwrap(), vec![(1, 0, ContactKind::Interior)]);
+        assert_eq!(parsed.validate().unwrap().pairs(), [PairIndex { a: 1, b: 0, kind: ContactKind::Interior }]);
         assert_eq!(parsed.bodies[0].floats(), 10 * 9 * 3);
         assert!(!parsed.nearest, "contacts in the sample's own section unless declared");
         let on: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""nearest":true,"pairs""#)).unwrap();

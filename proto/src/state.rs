@@ -7,7 +7,7 @@
 //! - a rod of `A` points: `A * 3` floats.
 
 use crate::error::InputError;
-use crate::scene::{SceneSpec, Shape};
+use crate::scene::{BodySpec, SceneSpec, Shape};
 
 /// Offsets of one body in the state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,8 +59,9 @@ impl StateLayout {
         Self { bodies, floats: offset }
     }
 
-    /// Checks the length and that every value is finite; the error names body, ring and spoke.
-    pub fn check(&self, spec: &SceneSpec, state: &[f32]) -> Result<(), InputError> {
+    /// Checks the length and that every value is finite; the error names body, ring and spoke
+    /// (`bodies`: the spec's bodies this layout was derived from, for their names).
+    pub fn check(&self, bodies: &[BodySpec], state: &[f32]) -> Result<(), InputError> {
         if state.len() != self.floats {
             return Err(InputError::StateLength { expected: self.floats, got: state.len() });
         }
@@ -73,7 +74,7 @@ impl StateLayout {
             let data = &state[l.offset..l.offset + l.floats()];
             if let Some(i) = data.iter().position(|v| !v.is_finite()) {
                 let (point, within) = (i / l.stride(), i % l.stride() / 3);
-                let (body, value) = (spec.bodies[b].name.clone(), data[i]);
+                let (body, value) = (bodies[b].name.clone(), data[i]);
                 return Err(if within == 0 {
                     InputError::NonFinitePoint { body, point, value }
                 } else {
@@ -100,7 +101,7 @@ pub fn all_finite(values: &[f32]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{BodySpec, SceneSpec};
+    use crate::scene::SceneSpec;
 
     #[test]
     fn all_finite_sees_every_position() {
@@ -130,11 +131,11 @@ mod tests {
         assert_eq!(l.bodies[1].offset, 3 * 5 * 3);
         assert_eq!(l.floats, 45 + 6);
         let mut s = vec![0.0; l.floats];
-        assert_eq!(l.check(&spec, &s[1..]), Err(InputError::StateLength { expected: 51, got: 50 }));
+        assert_eq!(l.check(&spec.bodies, &s[1..]), Err(InputError::StateLength { expected: 51, got: 50 }));
         s[15 + 3 * 3 + 1] = f32::NAN; // ring 1, spoke 2, y
-        assert!(matches!(l.check(&spec, &s), Err(InputError::NonFiniteSpoke { ring: 1, spoke: 2, .. })));
+        assert!(matches!(l.check(&spec.bodies, &s), Err(InputError::NonFiniteSpoke { ring: 1, spoke: 2, .. })));
         s[15 + 10] = 0.0;
         s[45 + 4] = f32::INFINITY; // rod point 1
-        assert!(matches!(l.check(&spec, &s), Err(InputError::NonFinitePoint { point: 1, .. })));
+        assert!(matches!(l.check(&spec.bodies, &s), Err(InputError::NonFinitePoint { point: 1, .. })));
     }
 }

@@ -134,7 +134,7 @@ mod tests {
         assert_eq!(spec.bodies[0].spokes(), Some(32));
         assert!((1200..1300).contains(&spec.bodies[0].points()), "{} rings", spec.bodies[0].points());
         assert_eq!(spec.bodies[1].points(), 160);
-        let mut det = lumen_detect::Detector::new(&spec).unwrap();
+        let mut det = lumen_detect::Detector::new(&spec.validate().unwrap());
         let mut counts = Vec::new();
         for s in &states {
             assert_eq!(s.len(), layout.floats);
@@ -148,7 +148,7 @@ mod tests {
         let spec = spec();
         let layout = StateLayout::of(&spec);
         assert_eq!(layout.floats, 1250 * 33 * 3 + 160 * 3);
-        let mut det = lumen_detect::Detector::new(&spec).unwrap();
+        let mut det = lumen_detect::Detector::new(&spec.validate().unwrap());
         let mut state = vec![0.0; layout.floats];
         let mut counts = Vec::new();
         for k in [0, 50, 100] {

@@ -6,7 +6,7 @@ use lumen_transport::names::{client_alive_name, contacts_name, frame_name};
 use lumen_transport::shm::ChannelQos;
 use lumen_proto::session::{ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
-use lumen_proto::{SceneSpec, StateLayout};
+use lumen_proto::SceneSpec;
 use std::sync::Arc;
 
 /// A session accepted by [`open`], to be started by its transport.
@@ -71,11 +71,12 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }
-    if let Err(e) = spec.validate() {
-        return error(ErrorCode::Spec, format!("invalid scene spec: {e}"));
-    }
+    let scene = match spec.validate() {
+        Ok(scene) => scene,
+        Err(e) => return error(ErrorCode::Spec, format!("invalid scene spec: {e}")),
+    };
     let limits = registry.limits;
-    let layout = StateLayout::of(&spec);
+    let layout = scene.layout().clone();
     let max_contacts = contact_bound(&spec).min(limits.max_contacts);
     let observers = limits.max_observers;
     let bytes = match transport {
@@ -105,7 +106,7 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
         alive: if transport == Transport::Zenoh { client_alive_name(id) } else { String::new() },
         max_observers: observers as u32,
     };
-    let Some(entry) = registry.insert(info.clone(), client) else {
+    let Some(entry) = registry.insert(info.clone(), scene, client) else {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
     };
     match start(Plan { entry, echo }) {

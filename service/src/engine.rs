@@ -5,7 +5,7 @@
 use crate::registry::Entry;
 use lumen_detect::Detector;
 use lumen_proto::wire::{ContactsHeader, FrameError, FrameHeader, FLAG_TRUNCATED};
-use lumen_proto::{Contact, SceneSpec, StateLayout};
+use lumen_proto::{Contact, StateLayout};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -13,7 +13,6 @@ use std::time::Instant;
 pub struct Engine {
     pub id: u64,
     pub layout: StateLayout,
-    spec: SceneSpec,
     /// `None`: an echo session (benchmarks): every frame gets an empty `Ok` reply.
     detector: Option<Detector>,
     max_contacts: usize,
@@ -22,11 +21,10 @@ pub struct Engine {
 }
 
 impl Engine {
-    /// An engine for the session in `entry` (its spec was validated when it opened).
-    pub fn new(entry: Arc<Entry>, echo: bool) -> Result<Self, lumen_proto::SpecError> {
-        let spec = entry.info.spec.clone();
-        let detector = if echo { None } else { Some(Detector::new(&spec)?) };
-        Ok(Self { id: entry.info.session, layout: StateLayout::of(&spec), spec, detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry })
+    /// An engine for the session in `entry`, whose scene was validated when it opened.
+    pub fn new(entry: Arc<Entry>, echo: bool) -> Self {
+        let detector = (!echo).then(|| Detector::new(&entry.scene));
+        Self { id: entry.info.session, layout: entry.scene.layout().clone(), detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry }
     }
 
     /// Runs one frame: `frame` is the header and floats if they were readable, else the header
@@ -62,13 +60,13 @@ impl Engine {
                 (reply, &contacts[..n])
             }
             Ok(Err(e)) => {
-                let spec = &self.spec;
+                let spec = self.entry.scene.spec();
                 reply.set_input_error(&e, |name| spec.body_index(name));
                 (reply, &[])
             }
             Err(_) => {
                 reply.set_error(lumen_proto::wire::Status::Internal, &"the detector failed on this frame; it was reset and the session goes on");
-                self.detector = Detector::new(&self.spec).ok();
+                self.detector = Some(Detector::new(&self.entry.scene));
                 (reply, &[])
             }
         }
@@ -132,7 +130,7 @@ mod tests {
             Ok(())
         });
         assert!(matches!(r, ControlReply::Opened(_)));
-        Engine::new(entry.unwrap(), false).unwrap()
+        Engine::new(entry.unwrap(), false)
     }
 
     #[test]

@@ -12,9 +12,6 @@ pub enum DaemonError {
     /// iceoryx2 or zenoh failed.
     #[error(transparent)]
     Transport(#[from] TransportError),
-    /// A session's spec was refused by the pipeline (it was validated when it opened).
-    #[error("the session's scene: {0}")]
-    Spec(#[from] lumen_proto::SpecError),
     /// A thread could not be started.
     #[error("starting the {thread} thread: {source}")]
     Spawn { thread: String, source: std::io::Error },

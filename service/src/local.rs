@@ -258,7 +258,7 @@ fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Send
     let id = plan.entry.info.session;
     let node = node(cfg, &format!("lumen-session-{id}"))?;
     let channels = Channels::create(&node, &plan, registry.limits.max_observers)?;
-    let mut engine = Engine::new(plan.entry.clone(), plan.echo)?;
+    let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;
     let on_frame = waitset.attach_notification(&channels.listener).map_err(|e| iox("attaching", e))?;
     let on_tick = waitset.attach_interval(TICK).map_err(|e| iox("attaching", e))?;

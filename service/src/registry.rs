@@ -2,6 +2,7 @@
 
 use crate::config::Limits;
 use crate::error::DaemonError;
+use lumen_proto::ValidScene;
 use crate::stats::Stats;
 use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
 use std::collections::BTreeMap;
@@ -13,6 +14,8 @@ use std::time::{Instant, SystemTime, UNIX_EPOCH};
 #[derive(Debug)]
 pub struct Entry {
     pub info: SessionInfo,
+    /// The session's scene, validated once when it opened.
+    pub scene: ValidScene,
     pub client: String,
     pub opened: Instant,
     /// Set to ask the session's thread to end.
@@ -53,12 +56,12 @@ impl Registry {
     }
 
     /// Adds a session; `None` if the daemon is full.
-    pub fn insert(&self, info: SessionInfo, client: String) -> Option<Arc<Entry>> {
+    pub fn insert(&self, info: SessionInfo, scene: ValidScene, client: String) -> Option<Arc<Entry>> {
         let mut s = self.sessions.lock().expect("registry lock");
         if s.len() >= self.limits.max_sessions {
             return None;
         }
-        let e = Arc::new(Entry { info, client, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
+        let e = Arc::new(Entry { info, scene, client, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
         s.insert(e.info.session, e.clone());
         Some(e)
     }

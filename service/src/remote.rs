@@ -110,7 +110,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
         .wait()
         .map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
     let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
-    let mut engine = Engine::new(plan.entry.clone(), plan.echo)?;
+    let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout.floats);
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
     let _ = ready.send(Ok(()));

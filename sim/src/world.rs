@@ -77,7 +77,7 @@ pub struct InProcess {
 impl InProcess {
     /// A detector for `spec`.
     pub fn new(spec: &SceneSpec) -> Result<Self, SpecError> {
-        let detector = Detector::new(spec)?;
+        let detector = Detector::new(&spec.validate()?);
         let state = vec![0.0; detector.layout().floats];
         Ok(Self { detector, state, written: false })
     }
@@ -267,8 +267,8 @@ impl<S: ContactSource> World<S> {
     /// As [`World::new`] with the scope's initial control points given (tip first).
     pub fn with_rod(tube: &Tube, config: SimConfig, source: S, points: Vec<V3>) -> Result<Self, SimError> {
         let spec = setup::scene_spec(tube, &config.rod, &config.sim);
-        spec.validate().map_err(SimError::Spec)?;
-        let layout = StateLayout::of(&spec);
+        let scene = spec.validate().map_err(SimError::Spec)?;
+        let layout = scene.layout().clone();
         let mut rest_colon = Vec::with_capacity(layout.bodies[0].floats());
         tube.write_state(&mut rest_colon);
         let (axis_origin, axis_dir) = setup::insertion_axis(tube);

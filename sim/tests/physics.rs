@@ -139,7 +139,7 @@ fn a_closure_source_gives_the_same_run_as_in_process_detection() {
     let colon = setup::generated_colon(2, 1500.0);
     let config = SimConfig { script: Script::short_colonoscopy(), ..SimConfig::default() };
     let spec = setup::scene_spec(&colon, &config.rod, &config.sim);
-    let mut detector = lumen_detect::Detector::new(&spec).unwrap();
+    let mut detector = lumen_detect::Detector::new(&spec.validate().unwrap());
     let floats = detector.layout().floats;
     let calls = std::rc::Rc::new(std::cell::Cell::new(0u32));
     let counted = calls.clone();

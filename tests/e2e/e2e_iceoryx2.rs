@@ -54,7 +54,7 @@ fn round_trip_matches_the_in_process_detector_bit_for_bit() {
     let client = client(&prefix);
     let mut session = client.open_session(&scene.spec).unwrap();
     assert_eq!(session.layout().floats, 40 * 17 * 3 + 24 * 3);
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let mut total = 0;
     for k in 0..40 {
         let state = scene.state(k);
@@ -177,7 +177,7 @@ fn a_bad_frame_among_good_ones_gets_an_error_and_the_session_goes_on() {
     let scene = scene();
     let client = client(&prefix);
     let mut s = client.open_session(&scene.spec).unwrap();
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     for k in 0..12u64 {
         let mut state = scene.state(k);
         let expect_ok = match k {
@@ -320,7 +320,7 @@ fn async_replies_match_the_blocking_ones_and_time_out() {
     let scene = scene();
     let client = client(&prefix);
     let mut s = client.open_session(&scene.spec).unwrap();
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
     rt.block_on(async {
         for k in 0..20u64 {
@@ -347,7 +347,7 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     let scene = scene();
     let (mine, other) = (client(&prefix), client(&prefix));
     let mut s = mine.open_session(&scene.spec).unwrap();
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     s.frame().unwrap().copy_from_slice(&scene.state(0));
     s.submit().unwrap();
     assert!(same_bits(s.contacts(WAIT).unwrap().contacts(), reference.detect(&scene.state(0)).unwrap()));

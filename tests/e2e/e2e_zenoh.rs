@@ -54,7 +54,7 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     let scene = TestScene::new(40, 16, 24);
     let client = Client::zenoh(&d.endpoint()).unwrap();
     let mut s = client.open_session(&scene.spec).unwrap();
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let round_trip = |s: &mut lumen_client::Session, k: u64| {
         s.frame().unwrap().copy_from_slice(&scene.state(k));
         s.submit().unwrap();
@@ -79,7 +79,7 @@ fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
     let watcher = Client::zenoh(&d.endpoint()).unwrap();
     let mut obs = watcher.observe(s.id()).unwrap();
     std::thread::sleep(Duration::from_millis(200)); // let the observer's subscription propagate
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let mut total = 0;
     for k in 0..30 {
         let state = scene.state(k);
@@ -131,7 +131,7 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
     let client = Client::zenoh(&d.endpoint()).unwrap();
     let mut victim = client.open_session(&scene.spec).unwrap();
     let mut other = client.open_session(&scene.spec).unwrap();
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let raw = zenoh::open(lumen_transport::net::config("client", &[], &[d.endpoint()]).unwrap()).wait().unwrap();
     let key = victim.info().frame.clone();
     let floats = victim.layout().floats;
@@ -270,7 +270,7 @@ fn tls_round_trip_with_the_daemons_ca_and_refusals_without_it() {
     let scene = TestScene::new(40, 16, 24);
     let client = Client::zenoh_tls(&endpoint, &ca).unwrap();
     let mut s = client.open_session(&scene.spec).unwrap();
-    let mut reference = Detector::new(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
     // zenoh propagates the daemon's subscription asynchronously, so a first frame can also be
     // dropped: each frame is sent until answered, through `Disconnected` and timeouts.
     for k in 0..10 {

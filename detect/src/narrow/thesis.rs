@@ -15,17 +15,20 @@
 //! buffers are reused, so nothing allocates per frame once warm.
 
 use super::Emit;
-use crate::aabb::Aabb;
-use crate::bvh::ChainBvh;
+use crate::broad::aabb::Aabb;
+use crate::broad::bvh::ChainBvh;
 use crate::samples::RodSamples;
 use crate::section::TubeCache;
 use crate::view::TubeView;
 use crate::V3;
 use lumen_proto::Contact;
 
-/// Reused buffers of the published method.
+/// The job of one interior pair by the published method: the rod's slot, the tube's slot, and
+/// the method's reused buffers.
 #[derive(Debug, Clone, Default)]
 pub struct Thesis {
+    pub rod: usize,
+    pub tube: usize,
     tube_bvh: ChainBvh,
     rod_bvh: ChainBvh,
     pairs: Vec<(u32, u32)>,
@@ -49,8 +52,14 @@ fn on_edge(p: &V3, a: &V3, b: &V3) -> (f32, f32) {
 }
 
 impl Thesis {
-    /// Interior contacts of `rod` in tube `t`.
-    pub fn interior(&mut self, t: &TubeView, cache: &mut TubeCache, rod: &RodSamples, emit: &Emit, out: &mut Vec<Contact>) -> u32 {
+    /// The job for rod slot `rod` inside tube slot `tube`.
+    pub fn new(rod: usize, tube: usize) -> Self {
+        Self { rod, tube, ..Self::default() }
+    }
+
+    /// This frame's interior contacts of `rod` in tube `t`, appended to `out`; returns the
+    /// candidate leaf pairs.
+    pub fn run(&mut self, t: &TubeView, cache: &mut TubeCache, rod: &RodSamples, emit: &Emit, out: &mut Vec<Contact>) -> u32 {
         let x = rod.x;
         let segs = t.segments();
         // Published leaves: the tips of both rings, rebuilt from scratch every frame. Each
@@ -160,8 +169,7 @@ impl Thesis {
                     } else {
                         crate::section::any_perpendicular(cache.cubic(t, i).tangent(u).try_normalize(0.0).unwrap_or(V3::x()))
                     };
-                    let (ja, ua) = rod.segment_of(s);
-                    let mut ct = emit.contact(s, ja, ua, p + normal * r, wall, normal, r - dist);
+                    let mut ct = emit.contact(rod, s, p + normal * r, wall, normal, r - dist);
                     ct.index_b = i as u32;
                     ct.spoke_b = k as u32;
                     ct.param_b = u;

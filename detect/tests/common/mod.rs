@@ -72,7 +72,7 @@ pub fn interior(colon: Tube, scope: Rod, x: u32, method: Method) -> Scene {
 
 /// Runs one frame of `scene` on a fresh detector.
 pub fn run(scene: &Scene) -> Vec<Contact> {
-    let mut d = Detector::new(&scene.spec()).unwrap();
+    let mut d = Detector::new(&scene.spec().validate().unwrap());
     d.detect(&scene.state()).unwrap().to_vec()
 }
 

@@ -1,4 +1,4 @@
-//! Rod against rod, and a rod against its own non-adjacent part.
+//! Rod against rod; the test [`rod_self`](super::rod_self) shares.
 //!
 //! Candidates come from the dual traversal of the two rods' BVHs (leaves: Bezier hull grown by
 //! the radius). Each sample of rod `a` is tested against the sampled polyline of rod `b` within
@@ -9,8 +9,7 @@
 //! itself, so anything nearer along the arc is the rod's own neighbourhood, not a loop.
 
 use super::Emit;
-use crate::bvh::ChainBvh;
-use crate::samples::RodSamples;
+use crate::broad::RodFrame;
 use crate::V3;
 use lumen_proto::contact::NO_SPOKE;
 use lumen_proto::Contact;
@@ -31,18 +30,32 @@ impl Default for Best {
     }
 }
 
-/// Contacts between samples of `a` and the surface of `b` (`same`: `a` and `b` are one rod).
-#[allow(clippy::too_many_arguments)]
-pub fn rod_rod(
-    a: &RodSamples,
-    a_bvh: &ChainBvh,
-    b: &RodSamples,
-    b_bvh: &ChainBvh,
-    same: bool,
-    best: &mut Vec<Best>,
-    emit: &Emit,
-    out: &mut Vec<Contact>,
-) -> u32 {
+/// The job of one pair of two rods: their slots, and each sample of `a`'s best contact so far.
+#[derive(Debug, Clone, Default)]
+pub struct RodRod {
+    pub a: usize,
+    pub b: usize,
+    best: Vec<Best>,
+}
+
+impl RodRod {
+    /// The job for rod slots `a` and `b` (`a != b`).
+    pub fn new(a: usize, b: usize) -> Self {
+        Self { a, b, best: Vec::new() }
+    }
+
+    /// This frame's contacts of `a`'s samples on `b`, appended to `out`; returns the candidate
+    /// leaf pairs.
+    #[inline]
+    pub fn run(&mut self, a: RodFrame, b: RodFrame, emit: &Emit, out: &mut Vec<Contact>) -> u32 {
+        rod_rod(a, b, false, &mut self.best, emit, out)
+    }
+}
+
+/// Contacts between samples of `a` and the surface of `b` (`same`: `a` and `b` are one rod);
+/// returns the candidate leaf pairs.
+pub fn rod_rod(a: RodFrame, b: RodFrame, same: bool, best: &mut Vec<Best>, emit: &Emit, out: &mut Vec<Contact>) -> u32 {
+    let (RodFrame { samples: a, bvh: a_bvh }, RodFrame { samples: b, bvh: b_bvh }) = (a, b);
     best.clear();
     best.resize(a.len(), Best::default());
     let mut candidates = 0;
@@ -95,9 +108,8 @@ pub fn rod_rod(
     });
     for (s, bst) in best.iter().enumerate() {
         if bst.depth > -emit.margin {
-            let (ja, ua) = a.segment_of(s);
             let p = a.pos[s];
-            let mut c = emit.contact(s, ja, ua, p + bst.normal * a.radius[s], bst.point_b, bst.normal, bst.depth);
+            let mut c = emit.contact(a, s, p + bst.normal * a.radius[s], bst.point_b, bst.normal, bst.depth);
             c.index_b = bst.seg_b;
             c.spoke_b = NO_SPOKE;
             c.param_b = bst.u_b;

@@ -7,7 +7,7 @@
 //! Node layout: level 0 holds the leaves, level `k + 1` holds `ceil(len_k / 2)` parents; node
 //! `j` of level `k + 1` has children `2j` and `2j + 1` of level `k` (the second may not exist).
 
-use crate::aabb::Aabb;
+use crate::broad::aabb::Aabb;
 use crate::V3;
 
 /// A chain BVH. Boxes are stored level after level, leaves first.

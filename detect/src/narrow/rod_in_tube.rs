@@ -1,0 +1,91 @@
+//! A rod inside a tube, by the signed method (the default): each sample located by its walk
+//! ([`crate::broad::track`]), then read in its own cross-section ([`TubeCache::gap`]), or moved
+//! to the nearest point of the continuous wall with the scene's `nearest` ([`crate::nearest`]).
+//! A sample outside the wall is a contact with positive depth however far out it is, and its
+//! normal is the wall's.
+
+use super::{Emit, SignedParams, NEAREST_REACH};
+use crate::broad::track::{Track, Walk};
+use crate::broad::{Counters, TubeFrame};
+use crate::nearest::{nearest, MAX_OTHERS};
+use crate::samples::RodSamples;
+use crate::section::{Reading, TubeCache};
+use crate::view::TubeView;
+use lumen_proto::contact::FLAG_OTHER_WALL;
+use lumen_proto::Contact;
+
+/// The job of one interior pair: the rod's slot, the tube's slot, and each sample's track.
+#[derive(Debug, Clone, Default)]
+pub struct RodInTube {
+    pub rod: usize,
+    pub tube: usize,
+    /// One per rod sample: where its walk starts next frame.
+    tracks: Vec<Track>,
+}
+
+impl RodInTube {
+    /// The job for rod slot `rod` inside tube slot `tube`, without history.
+    pub fn new(rod: usize, tube: usize) -> Self {
+        Self { rod, tube, tracks: Vec::new() }
+    }
+
+    /// Forgets every sample's track: the next frame locates each through the BVH.
+    pub fn reset(&mut self) {
+        self.tracks.iter_mut().for_each(|t| *t = Track::default());
+    }
+
+    /// This frame's contacts of `rod` inside `tube`, appended to `out`.
+    #[inline]
+    pub fn run(&mut self, tube: TubeFrame, rod: &RodSamples, params: SignedParams, emit: &Emit, out: &mut Vec<Contact>, counters: &mut Counters) {
+        if self.tracks.len() != rod.len() {
+            self.tracks.clear();
+            self.tracks.resize(rod.len(), Track::default());
+        }
+        interior(tube, rod, &mut self.tracks, params, emit, out, counters);
+    }
+}
+
+/// Interior contacts of one rod inside one tube.
+pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], params: SignedParams, emit: &Emit, out: &mut Vec<Contact>, counters: &mut Counters) {
+    let mut walk = Walk::new(&tube.view, params.refine);
+    // How far inside, beyond the rod's radius, a sample is clear: no contact, and no search
+    // for the nearest wall (which starts within NEAREST_REACH margins).
+    let clear = emit.margin * if params.nearest { NEAREST_REACH } else { 1.0 };
+    // By index: a sample reads its position, radius and track, and writes its track.
+    #[allow(clippy::needless_range_loop)]
+    for s in 0..rod.len() {
+        let p = rod.pos[s];
+        let r = rod.radius[s];
+        // The rod's ends are read whatever their section says, and scanned for pockets of the
+        // wall around them: the wall ahead of an end (a fold's flank within the rod's radius
+        // along the tube) lies in no section a sample reads, where along the rod the next
+        // sample's own section holds it.
+        let end = s == 0 || s + 1 == rod.len();
+        // Most samples lie well inside: those only need their sector for next frame.
+        let read = |cache: &mut TubeCache, t: &TubeView, seg: usize, u: f32, k_guess: Option<usize>| {
+            if params.refine == 0 && !(params.nearest && end) {
+                cache.gap_or_clear(t, &p, seg, u, k_guess, r + clear)
+            } else {
+                Reading::Gap(cache.gap(t, &p, seg, u, k_guess, params.refine))
+            }
+        };
+        // A clear sample keeps only its place, as a gap deeper than the margin would: no contact.
+        let Some(Reading::Gap(mut g)) = walk.locate(&mut tube, &p, r, &mut tracks[s], counters, read) else { continue };
+        let mut others = [None; MAX_OTHERS];
+        if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || end) {
+            let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, end);
+            (g, others) = (near.first, near.others);
+        }
+        let depth = g.sd + r;
+        if depth > -emit.margin {
+            out.push(emit.on_tube(rod, s, &g, depth, g.normal, tube.view.spokes));
+        }
+        // Other walls within the margin (a corner, a pocket): a contact each, so the sample is
+        // held by all of them.
+        for g2 in others.iter().flatten() {
+            let mut c = emit.on_tube(rod, s, g2, g2.sd + r, g2.normal, tube.view.spokes);
+            c.flags |= FLAG_OTHER_WALL;
+            out.push(c);
+        }
+    }
+}
