@@ -50,7 +50,7 @@ use crate::setup;
 use crate::wall::Wall;
 use lumen_detect::{Detector, Tube};
 use lumen_proto::contact::FLAG_OUTSIDE;
-use lumen_proto::{Contact, ContactKind, SceneSpec, SpecError, StateLayout};
+use lumen_proto::{Contact, ContactKind, SceneSpec, SpecError, StateLayout, ValidScene};
 use std::fmt;
 use std::time::Instant;
 
@@ -75,11 +75,11 @@ pub struct InProcess {
 }
 
 impl InProcess {
-    /// A detector for `spec`.
-    pub fn new(spec: &SceneSpec) -> Result<Self, SpecError> {
-        let detector = Detector::new(&spec.validate()?);
+    /// A detector for `scene`.
+    pub fn new(scene: &ValidScene) -> Self {
+        let detector = Detector::new(scene);
         let state = vec![0.0; detector.layout().floats];
-        Ok(Self { detector, state, written: false })
+        Self { detector, state, written: false }
     }
 
     /// The detector (for its statistics).
@@ -220,7 +220,7 @@ pub struct World<S: ContactSource> {
     contacts: ContactSet,
     raw: Vec<Contact>,
     source: S,
-    spec: SceneSpec,
+    scene: ValidScene,
     layout: StateLayout,
     rest_colon: Vec<f32>,
     axis_origin: V3,
@@ -248,10 +248,18 @@ impl World<InProcess> {
     /// A simulation of `tube` with in-process detection, the scope placed by
     /// [`setup::insertion_pose`].
     pub fn in_process(tube: &Tube, config: SimConfig) -> Result<Self, SimError> {
-        let spec = setup::scene_spec(tube, &config.rod, &config.sim);
-        let source = InProcess::new(&spec).map_err(SimError::Spec)?;
-        Self::new(tube, config, source)
+        let scene = setup::scene_spec(tube, &config.rod, &config.sim).validate().map_err(SimError::Spec)?;
+        let source = InProcess::new(&scene);
+        let points = start_pose(tube, &config);
+        Self::build(tube, config, source, points, scene)
     }
+}
+
+/// The scope's starting control points: laid by [`setup::insertion_pose`] with its tip at
+/// `config.start_depth_mm`, or 20 mm before the sigmoid's sharpest bend.
+fn start_pose(tube: &Tube, config: &SimConfig) -> Vec<V3> {
+    let depth = config.start_depth_mm.unwrap_or_else(|| (setup::sigmoid_bend_mm(tube) - 20.0).max(0.0));
+    setup::insertion_pose(tube, &config.rod, depth)
 }
 
 impl<S: ContactSource> World<S> {
@@ -259,15 +267,18 @@ impl<S: ContactSource> World<S> {
     /// [`setup::scene_spec`]`(tube, &config.rod, &config.sim)`), the scope placed by
     /// [`setup::insertion_pose`]. Detects once on the initial state.
     pub fn new(tube: &Tube, config: SimConfig, source: S) -> Result<Self, SimError> {
-        let depth = config.start_depth_mm.unwrap_or_else(|| (setup::sigmoid_bend_mm(tube) - 20.0).max(0.0));
-        let points = setup::insertion_pose(tube, &config.rod, depth);
+        let points = start_pose(tube, &config);
         Self::with_rod(tube, config, source, points)
     }
 
     /// As [`World::new`] with the scope's initial control points given (tip first).
     pub fn with_rod(tube: &Tube, config: SimConfig, source: S, points: Vec<V3>) -> Result<Self, SimError> {
-        let spec = setup::scene_spec(tube, &config.rod, &config.sim);
-        let scene = spec.validate().map_err(SimError::Spec)?;
+        let scene = setup::scene_spec(tube, &config.rod, &config.sim).validate().map_err(SimError::Spec)?;
+        Self::build(tube, config, source, points, scene)
+    }
+
+    /// The simulation of `tube` for its validated `scene` (the spec of [`setup::scene_spec`]).
+    fn build(tube: &Tube, config: SimConfig, source: S, points: Vec<V3>, scene: ValidScene) -> Result<Self, SimError> {
         let layout = scene.layout().clone();
         let mut rest_colon = Vec::with_capacity(layout.bodies[0].floats());
         tube.write_state(&mut rest_colon);
@@ -290,7 +301,7 @@ impl<S: ContactSource> World<S> {
             contacts,
             raw: Vec::new(),
             source,
-            spec,
+            scene,
             layout,
             rest_colon,
             axis_origin,
@@ -385,7 +396,7 @@ impl<S: ContactSource> World<S> {
 
     /// The scene spec the source serves.
     pub fn spec(&self) -> &SceneSpec {
-        &self.spec
+        self.scene.spec()
     }
 
     /// The configuration.

@@ -54,7 +54,7 @@ fn a_straight_rod_at_rest_stays_straight_and_keeps_its_length() {
     let pts = rod_points(&params, V3::new(380.0, -13.5, 0.0));
     let config = SimConfig { rod: params, script: hold_script(1.0), ..SimConfig::default() };
     let spec = setup::scene_spec(&tube, &config.rod, &config.sim);
-    let mut world = World::with_rod(&tube, config, InProcess::new(&spec).unwrap(), pts).unwrap();
+    let mut world = World::with_rod(&tube, config, InProcess::new(&spec.validate().unwrap()), pts).unwrap();
     for _ in 0..500 {
         let r = world.step().unwrap();
         assert_eq!(r.escaped, 0);
@@ -84,7 +84,7 @@ fn a_rod_pushed_into_a_straight_tube_is_held_inside() {
     };
     let config = SimConfig { rod: params, script, ..SimConfig::default() };
     let spec = setup::scene_spec(&tube, &config.rod, &config.sim);
-    let mut world = World::with_rod(&tube, config, InProcess::new(&spec).unwrap(), pts).unwrap();
+    let mut world = World::with_rod(&tube, config, InProcess::new(&spec.validate().unwrap()), pts).unwrap();
     let (mut pen, mut wall, mut force, mut touching) = (0.0f32, 0.0f32, 0.0f64, 0u32);
     for _ in 0..650 {
         let r = world.step().unwrap();
