@@ -27,3 +27,7 @@ pub use model::{Body, Rod, Scene, Tube};
 
 /// The vector type of the pipeline: `f32`, in the scene's unit.
 pub type V3 = nalgebra::Vector3<f32>;
+
+/// The same vector in `f64`, for what accumulates error over many steps: midline arc lengths and
+/// frames (import, scenes) and the physics's positions and velocities.
+pub type V3d = nalgebra::Vector3<f64>;

@@ -1,7 +1,7 @@
 //! A tube model from a triangle surface and a midline, by ray casting.
 
 use crate::{Centerline, ImportError, Mesh};
-use crate::geom::{any_perpendicular, arc_lengths, at_arc, f3, rotation_minimising, smooth_along, tangents, D3};
+use crate::geom::{any_perpendicular, arc_lengths, at_arc, f3, rotation_minimising, smooth_along, tangents, V3d};
 use lumen_detect::Tube;
 use parry3d::math::Vector;
 use parry3d::query::{Ray, RayCast};
@@ -192,19 +192,19 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(points: &[D3], cell: f64) -> Self {
+    fn new(points: &[V3d], cell: f64) -> Self {
         let mut map: HashMap<(i32, i32, i32), Vec<u32>> = HashMap::new();
         for (i, p) in points.iter().enumerate() {
             map.entry(Self::key(p, cell)).or_default().push(i as u32);
         }
         Self { cell, map }
     }
-    fn key(p: &D3, cell: f64) -> (i32, i32, i32) {
+    fn key(p: &V3d, cell: f64) -> (i32, i32, i32) {
         ((p.x / cell).floor() as i32, (p.y / cell).floor() as i32, (p.z / cell).floor() as i32)
     }
     /// Calls `f` with every ring within `r` of `p` (and maybe a few more).
-    fn near(&self, p: &D3, r: f64, mut f: impl FnMut(u32) -> bool) -> bool {
-        let (lo, hi) = (Self::key(&(p - D3::repeat(r)), self.cell), Self::key(&(p + D3::repeat(r)), self.cell));
+    fn near(&self, p: &V3d, r: f64, mut f: impl FnMut(u32) -> bool) -> bool {
+        let (lo, hi) = (Self::key(&(p - V3d::repeat(r)), self.cell), Self::key(&(p + V3d::repeat(r)), self.cell));
         for x in lo.0..=hi.0 {
             for y in lo.1..=hi.1 {
                 for z in lo.2..=hi.2 {
@@ -247,10 +247,10 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
         return Err(ImportError::Invalid("the surface has no triangles".into()));
     }
     // Midline: drop repeated points, smooth, resample.
-    let mut raw: Vec<D3> = Vec::with_capacity(centerline.points.len());
+    let mut raw: Vec<V3d> = Vec::with_capacity(centerline.points.len());
     for p in &centerline.points {
         let q = crate::geom::d3(*p);
-        if raw.last().is_none_or(|l: &D3| (l - q).norm() > 1e-9) {
+        if raw.last().is_none_or(|l: &V3d| (l - q).norm() > 1e-9) {
             raw.push(q);
         }
     }
@@ -264,7 +264,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
         return Err(ImportError::Invalid(format!("{rings} rings ({length:.1} mm of midline every {spacing} mm); 2 to 65,536 are allowed")));
     }
     let smooth = smooth_along(&raw, &raw_arc, params.point_smoothing_mm as f64);
-    let pts: Vec<D3> = (0..rings).map(|i| at_arc(&smooth, &raw_arc, i as f64 * spacing)).collect();
+    let pts: Vec<V3d> = (0..rings).map(|i| at_arc(&smooth, &raw_arc, i as f64 * spacing)).collect();
     let arc = arc_lengths(&pts);
     let tan = tangents(&pts, &arc, params.tangent_smoothing_mm as f64);
     let nrm = rotation_minimising(&pts, &tan, any_perpendicular(tan[0]));
@@ -288,7 +288,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
 
     // Cast.
-    let dirs: Vec<Vec<D3>> = (0..rings)
+    let dirs: Vec<Vec<V3d>> = (0..rings)
         .map(|i| {
             let bn = tan[i].cross(&nrm[i]);
             (0..b)
@@ -453,7 +453,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
         if kappa < 1e-12 {
             continue;
         }
-        let spokes: Vec<D3> = (0..b).map(|k| dirs[i][k] * lengths[i * b + k]).collect();
+        let spokes: Vec<V3d> = (0..b).map(|k| dirs[i][k] * lengths[i * b + k]).collect();
         let inner = crate::probe::section_radius(&spokes, tan[i], 1.0, kv / kappa);
         if kappa * inner > 1.0 {
             report.tight_bends += 1;

@@ -2,20 +2,20 @@
 //! resampling, Gaussian smoothing along the arc and rotation-minimising frames.
 
 /// Double-precision vector used internally (the models store `f32`).
-pub type D3 = nalgebra::Vector3<f64>;
+pub use lumen_detect::V3d;
 
 #[inline]
-pub fn d3(p: [f32; 3]) -> D3 {
-    D3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+pub fn d3(p: [f32; 3]) -> V3d {
+    V3d::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
 #[inline]
-pub fn f3(p: D3) -> [f32; 3] {
+pub fn f3(p: V3d) -> [f32; 3] {
     [p.x as f32, p.y as f32, p.z as f32]
 }
 
 /// Cumulative arc length of a polyline, starting at 0.
-pub fn arc_lengths(points: &[D3]) -> Vec<f64> {
+pub fn arc_lengths(points: &[V3d]) -> Vec<f64> {
     let mut out = Vec::with_capacity(points.len());
     let mut s = 0.0;
     for (i, p) in points.iter().enumerate() {
@@ -43,7 +43,7 @@ pub fn locate_arc(arc: &[f64], s: f64) -> (usize, f64) {
 }
 
 /// Linear interpolation of per-point values at arc length `s`.
-pub fn at_arc(values: &[D3], arc: &[f64], s: f64) -> D3 {
+pub fn at_arc(values: &[V3d], arc: &[f64], s: f64) -> V3d {
     let (i, u) = locate_arc(arc, s);
     if values.len() == 1 {
         return values[0];
@@ -62,7 +62,7 @@ pub fn at_arc_scalar(values: &[f64], arc: &[f64], s: f64) -> f64 {
 
 /// Gaussian-weighted average of per-point values over arc length (`sigma` in the arc's unit,
 /// window 3 sigma, truncated at the ends); `sigma <= 0` returns the input.
-pub fn smooth_along(values: &[D3], arc: &[f64], sigma: f64) -> Vec<D3> {
+pub fn smooth_along(values: &[V3d], arc: &[f64], sigma: f64) -> Vec<V3d> {
     if sigma <= 0.0 || values.len() < 3 {
         return values.to_vec();
     }
@@ -76,7 +76,7 @@ pub fn smooth_along(values: &[D3], arc: &[f64], sigma: f64) -> Vec<D3> {
         while hi + 1 < n && arc[hi + 1] - arc[i] <= 3.0 * sigma {
             hi += 1;
         }
-        let (mut acc, mut wsum) = (D3::zeros(), 0.0);
+        let (mut acc, mut wsum) = (V3d::zeros(), 0.0);
         for j in lo..=hi {
             let d = (arc[j] - arc[i]) / sigma;
             let w = (-0.5 * d * d).exp();
@@ -90,18 +90,18 @@ pub fn smooth_along(values: &[D3], arc: &[f64], sigma: f64) -> Vec<D3> {
 
 /// Same for scalars.
 pub fn smooth_scalar(values: &[f64], arc: &[f64], sigma: f64) -> Vec<f64> {
-    let v: Vec<D3> = values.iter().map(|&x| D3::new(x, 0.0, 0.0)).collect();
+    let v: Vec<V3d> = values.iter().map(|&x| V3d::new(x, 0.0, 0.0)).collect();
     smooth_along(&v, arc, sigma).into_iter().map(|p| p.x).collect()
 }
 
 /// Unit tangents of a polyline: Gaussian-smoothed chord directions (`sigma` along the arc),
 /// normalised. With `sigma = 0` these are central differences.
-pub fn tangents(points: &[D3], arc: &[f64], sigma: f64) -> Vec<D3> {
+pub fn tangents(points: &[V3d], arc: &[f64], sigma: f64) -> Vec<V3d> {
     let n = points.len();
-    let raw: Vec<D3> = (0..n)
+    let raw: Vec<V3d> = (0..n)
         .map(|i| {
             let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
-            (points[b] - points[a]).try_normalize(1e-12).unwrap_or_else(D3::x)
+            (points[b] - points[a]).try_normalize(1e-12).unwrap_or_else(V3d::x)
         })
         .collect();
     smooth_along(&raw, arc, sigma)
@@ -112,13 +112,13 @@ pub fn tangents(points: &[D3], arc: &[f64], sigma: f64) -> Vec<D3> {
 }
 
 /// A unit vector perpendicular to unit `t`.
-pub fn any_perpendicular(t: D3) -> D3 {
+pub fn any_perpendicular(t: V3d) -> V3d {
     let a = if t.x.abs() <= t.y.abs() && t.x.abs() <= t.z.abs() {
-        D3::x()
+        V3d::x()
     } else if t.y.abs() <= t.z.abs() {
-        D3::y()
+        V3d::y()
     } else {
-        D3::z()
+        V3d::z()
     };
     (a - t * a.dot(&t)).normalize()
 }
@@ -126,7 +126,7 @@ pub fn any_perpendicular(t: D3) -> D3 {
 /// Rotation-minimising frame along a polyline by the double reflection method (Wang, Juttler,
 /// Zheng & Liu 2008): returns the unit normals `n_i`, perpendicular to the unit tangents `t_i`,
 /// starting from `n0` (projected onto the first normal plane). The binormal is `t x n`.
-pub fn rotation_minimising(points: &[D3], tangents: &[D3], n0: D3) -> Vec<D3> {
+pub fn rotation_minimising(points: &[V3d], tangents: &[V3d], n0: V3d) -> Vec<V3d> {
     let n = points.len();
     let mut out = Vec::with_capacity(n);
     if n == 0 {
@@ -161,13 +161,13 @@ mod tests {
     #[test]
     fn frame_on_a_helix_is_orthonormal_and_does_not_spin() {
         // Helix: the RMF's rotation about the tangent between samples is ~0.
-        let pts: Vec<D3> = (0..400).map(|i| {
+        let pts: Vec<V3d> = (0..400).map(|i| {
             let a = i as f64 * 0.02;
-            D3::new(30.0 * a.cos(), 30.0 * a.sin(), 5.0 * a)
+            V3d::new(30.0 * a.cos(), 30.0 * a.sin(), 5.0 * a)
         }).collect();
         let arc = arc_lengths(&pts);
         let t = tangents(&pts, &arc, 0.0);
-        let n = rotation_minimising(&pts, &t, D3::z());
+        let n = rotation_minimising(&pts, &t, V3d::z());
         for i in 0..pts.len() {
             assert!((n[i].norm() - 1.0).abs() < 1e-9);
             assert!(n[i].dot(&t[i]).abs() < 1e-9);
@@ -182,11 +182,11 @@ mod tests {
 
     #[test]
     fn arc_helpers() {
-        let pts = vec![D3::zeros(), D3::new(3.0, 4.0, 0.0), D3::new(3.0, 4.0, 10.0)];
+        let pts = vec![V3d::zeros(), V3d::new(3.0, 4.0, 0.0), V3d::new(3.0, 4.0, 10.0)];
         let arc = arc_lengths(&pts);
         assert_eq!(arc, vec![0.0, 5.0, 15.0]);
         assert_eq!(locate_arc(&arc, 10.0), (1, 0.5));
-        assert!((at_arc(&pts, &arc, 2.5) - D3::new(1.5, 2.0, 0.0)).norm() < 1e-12);
+        assert!((at_arc(&pts, &arc, 2.5) - V3d::new(1.5, 2.0, 0.0)).norm() < 1e-12);
         assert_eq!(at_arc(&pts, &arc, 99.0), pts[2]);
     }
 }

@@ -8,17 +8,17 @@
 //! bracketing rings of a point are the two planes it lies between, as in
 //! `lumen_detect::section`.
 
-use crate::geom::{arc_lengths, d3, D3};
+use crate::geom::{arc_lengths, d3, V3d};
 use lumen_detect::Tube;
 
 /// A tube's rings, prepared for queries.
 #[derive(Debug, Clone)]
 pub struct Lumen {
-    points: Vec<D3>,
-    normals: Vec<D3>,
+    points: Vec<V3d>,
+    normals: Vec<V3d>,
     /// +1 where spokes turn counter-clockwise about the normal, -1 clockwise.
     orient: Vec<f64>,
-    radial: Vec<D3>,
+    radial: Vec<V3d>,
     spokes: usize,
     arc: Vec<f64>,
 }
@@ -50,20 +50,20 @@ impl Lumen {
     pub fn new(tube: &Tube) -> Self {
         let n = tube.rings();
         let b = tube.spokes;
-        let points: Vec<D3> = tube.points.iter().map(|&p| d3(p)).collect();
-        let radial: Vec<D3> = tube.radial.iter().map(|&p| d3(p)).collect();
+        let points: Vec<V3d> = tube.points.iter().map(|&p| d3(p)).collect();
+        let radial: Vec<V3d> = tube.radial.iter().map(|&p| d3(p)).collect();
         let mut normals = Vec::with_capacity(n);
         let mut orient = Vec::with_capacity(n);
         for i in 0..n {
             let along = points[(i + 1).min(n - 1)] - points[i.saturating_sub(1)];
-            let mut area = D3::zeros();
+            let mut area = V3d::zeros();
             for k in 0..b {
                 area += radial[i * b + k].cross(&radial[i * b + (k + 1) % b]);
             }
             let (nrm, o) = match area.try_normalize(1e-12) {
                 Some(a) if a.dot(&along) >= 0.0 => (a, 1.0),
                 Some(a) => (-a, -1.0),
-                None => (along.try_normalize(1e-12).unwrap_or_else(D3::x), 1.0),
+                None => (along.try_normalize(1e-12).unwrap_or_else(V3d::x), 1.0),
             };
             normals.push(nrm);
             orient.push(o);
@@ -83,17 +83,17 @@ impl Lumen {
     }
 
     /// Unit normal of ring `i`'s plane, along the midline.
-    pub fn normal(&self, i: usize) -> D3 {
+    pub fn normal(&self, i: usize) -> V3d {
         self.normals[i]
     }
 
     /// Control point of ring `i`.
-    pub fn point(&self, i: usize) -> D3 {
+    pub fn point(&self, i: usize) -> V3d {
         self.points[i]
     }
 
     /// Radial vector `k` of ring `i`.
-    pub fn spoke(&self, i: usize, k: usize) -> D3 {
+    pub fn spoke(&self, i: usize, k: usize) -> V3d {
         self.radial[i * self.spokes + k]
     }
 
@@ -103,8 +103,8 @@ impl Lumen {
     }
 
     /// Distance to the wall from the midline at ring `i`, in-plane direction `dir`.
-    pub fn wall_radius(&self, i: usize, dir: D3) -> f64 {
-        let spokes: Vec<D3> = (0..self.spokes).map(|k| self.spoke(i, k)).collect();
+    pub fn wall_radius(&self, i: usize, dir: V3d) -> f64 {
+        let spokes: Vec<V3d> = (0..self.spokes).map(|k| self.spoke(i, k)).collect();
         section_radius(&spokes, self.normals[i], self.orient[i], dir)
     }
 
@@ -137,7 +137,7 @@ impl Lumen {
                 let mut q = p - c;
                 q -= nrm * q.dot(&nrm);
                 let b = self.spokes;
-                let spokes: Vec<D3> = (0..b).map(|k| self.spoke(i, k).lerp(&self.spoke(i + 1, k), u)).collect();
+                let spokes: Vec<V3d> = (0..b).map(|k| self.spoke(i, k).lerp(&self.spoke(i + 1, k), u)).collect();
                 let wall = section_radius(&spokes, nrm, self.orient[i], q);
                 let s = self.arc[i] + u * (self.arc[i + 1] - self.arc[i]);
                 return Some(Probe { ring: i, u, s, rho: q.norm(), wall });
@@ -149,9 +149,9 @@ impl Lumen {
 
 /// Distance from the centre to the polygon of spoke tips along in-plane direction `dir`
 /// (`nrm` the plane normal, `o` the turning sense of the spokes about it).
-pub(crate) fn section_radius(spokes: &[D3], nrm: D3, o: f64, dir: D3) -> f64 {
+pub(crate) fn section_radius(spokes: &[V3d], nrm: V3d, o: f64, dir: V3d) -> f64 {
     let b = spokes.len();
-    let proj = |v: D3| v - nrm * v.dot(&nrm);
+    let proj = |v: V3d| v - nrm * v.dot(&nrm);
     let q = proj(dir);
     if q.norm() < 1e-12 {
         return proj(spokes[0]).norm();

@@ -31,7 +31,7 @@
 //! `(n, b)` a rotation-minimising frame and `b = t x n` (`t` the unit tangent): counter-
 //! clockwise about the tangent.
 
-use lumen_import::geom::{any_perpendicular, arc_lengths, at_arc, locate_arc, rotation_minimising, D3};
+use lumen_import::geom::{any_perpendicular, arc_lengths, at_arc, locate_arc, rotation_minimising, V3d};
 use crate::rng::{hash_unit, Rng};
 use lumen_detect::Tube;
 use std::f64::consts::{PI, TAU};
@@ -231,7 +231,7 @@ pub fn generate(params: &ColonParams) -> Tube {
 }
 
 /// Uniform cubic B-spline span through `w[i-1..=i+2]` at `u`: position and derivative.
-fn bspline(w: &[D3], i: usize, u: f64) -> (D3, D3) {
+fn bspline(w: &[V3d], i: usize, u: f64) -> (V3d, V3d) {
     let (p0, p1, p2, p3) = (w[i], w[i + 1], w[i + 2], w[i + 3]);
     let u2 = u * u;
     let u3 = u2 * u;
@@ -244,15 +244,15 @@ fn bspline(w: &[D3], i: usize, u: f64) -> (D3, D3) {
 /// first and last waypoint with zero curvature): positions, tangents, arc, and the arc length
 /// nearest each waypoint.
 struct Dense {
-    pos: Vec<D3>,
-    tan: Vec<D3>,
+    pos: Vec<V3d>,
+    tan: Vec<V3d>,
     arc: Vec<f64>,
     way_arc: Vec<f64>,
 }
 
 const PER_SPAN: usize = 256;
 
-fn dense(way: &[D3]) -> Dense {
+fn dense(way: &[V3d]) -> Dense {
     let m = way.len();
     let mut w = Vec::with_capacity(m + 2);
     w.push(way[0] * 2.0 - way[1]);
@@ -345,8 +345,8 @@ impl RadiusModel {
 }
 
 struct Candidate {
-    pos: Vec<D3>,
-    tan: Vec<D3>,
+    pos: Vec<V3d>,
+    tan: Vec<V3d>,
     arc: Vec<f64>,
     regions: Vec<(f64, Region)>,
 }
@@ -354,11 +354,11 @@ struct Candidate {
 /// Builds a candidate midline (dense, scaled to `length`).
 fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
     let scale0 = length / REFERENCE_MM;
-    let mut way: Vec<D3> = TEMPLATE.iter().map(|(p, _)| D3::new(p[0], p[1], p[2])).collect();
+    let mut way: Vec<V3d> = TEMPLATE.iter().map(|(p, _)| V3d::new(p[0], p[1], p[2])).collect();
     if let Some(rng) = rng {
         // Global variation: sigmoid loop size, transverse sag, body proportions.
         let sig: Vec<usize> = (6..=12).collect();
-        let c = sig.iter().map(|&k| way[k]).sum::<D3>() / sig.len() as f64;
+        let c = sig.iter().map(|&k| way[k]).sum::<V3d>() / sig.len() as f64;
         let loop_scale = rng.range(0.9, 1.1);
         for &k in &sig {
             way[k] = c + (way[k] - c) * loop_scale;
@@ -367,16 +367,16 @@ fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
         for (k, w) in [(27usize, 0.3), (28, 0.6), (29, 0.9), (30, 1.0), (31, 0.9), (32, 0.6), (33, 0.3)] {
             way[k].z += sag * w;
         }
-        let aniso = D3::new(rng.range(0.95, 1.05), rng.range(0.95, 1.05), rng.range(0.95, 1.05));
+        let aniso = V3d::new(rng.range(0.95, 1.05), rng.range(0.95, 1.05), rng.range(0.95, 1.05));
         for w in way.iter_mut() {
             *w = w.component_mul(&aniso);
         }
         // A smooth random displacement field along the waypoints: Fourier modes with amplitude
         // falling as 1/m, so neighbouring waypoints move together and bends stay round.
         let m_count = way.len() as f64;
-        let modes: Vec<(f64, D3, D3)> = (1..=8)
+        let modes: Vec<(f64, V3d, V3d)> = (1..=8)
             .map(|m| {
-                let mut v = || D3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                let mut v = || V3d::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
                 (m as f64, v(), v())
             })
             .collect();
@@ -384,7 +384,7 @@ fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
         let rms = modes.iter().map(|(m, _, _)| 1.0 / (m * m)).sum::<f64>().sqrt();
         for (k, w) in way.iter_mut().enumerate() {
             let x = PI * k as f64 / (m_count - 1.0);
-            let mut d = D3::zeros();
+            let mut d = V3d::zeros();
             for (m, a, b) in &modes {
                 d += (a * (m * x).sin() + b * (m * x).cos()) / *m;
             }
@@ -413,7 +413,7 @@ fn check(c: &Candidate, rm: &RadiusModel, step: f64) -> (f64, f64) {
     let total = c.arc[c.arc.len() - 1];
     let n = (total / step).floor() as usize + 1;
     let s: Vec<f64> = (0..n).map(|i| i as f64 * step).collect();
-    let p: Vec<D3> = s.iter().map(|&x| at_arc(&c.pos, &c.arc, x)).collect();
+    let p: Vec<V3d> = s.iter().map(|&x| at_arc(&c.pos, &c.arc, x)).collect();
     let r: Vec<f64> = s.iter().map(|&x| rm.max_radius(x)).collect();
     let mut gap = f64::INFINITY;
     for i in 0..n {
@@ -496,8 +496,8 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
 
     // Rings every `spacing` along the arc, with a rotation-minimising frame.
     let arc: Vec<f64> = (0..rings).map(|i| i as f64 * spacing).collect();
-    let pts: Vec<D3> = arc.iter().map(|&s| at_arc(&c.pos, &c.arc, s)).collect();
-    let tan: Vec<D3> = arc
+    let pts: Vec<V3d> = arc.iter().map(|&s| at_arc(&c.pos, &c.arc, s)).collect();
+    let tan: Vec<V3d> = arc
         .iter()
         .map(|&s| {
             let (i, u) = locate_arc(&c.arc, s);
@@ -507,7 +507,7 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
     // Start the frame with n pointing anterior-ish (y), so angles are comparable across seeds.
     let n0 = {
         let t = tan[0];
-        let y = D3::y();
+        let y = V3d::y();
         (y - t * y.dot(&t)).try_normalize(1e-6).unwrap_or_else(|| any_perpendicular(t))
     };
     let nrm = rotation_minimising(&pts, &tan, n0);

@@ -38,7 +38,7 @@
 //! control-point spacings along the arc and 80 degrees around the push keeps its rest shape, and
 //! the segments touching them do not deform it), so they stay outside in the frame's colon.
 
-use lumen_import::geom::{at_arc, at_arc_scalar, d3, f3, smooth_along, smooth_scalar, D3};
+use lumen_import::geom::{at_arc, at_arc_scalar, d3, f3, smooth_along, smooth_scalar, V3d};
 use lumen_import::probe::Lumen;
 use crate::rng::Rng;
 use lumen_detect::{Rod, Tube};
@@ -104,10 +104,10 @@ struct Track {
     lumen: Lumen,
     rest: Tube,
     arc: Vec<f64>,
-    centre: Vec<D3>,
-    normal: Vec<D3>,
+    centre: Vec<V3d>,
+    normal: Vec<V3d>,
     /// Outward bend direction, unit, in the ring plane.
-    out: Vec<D3>,
+    out: Vec<V3d>,
     /// Bend factor in [0, 1].
     beta: Vec<f64>,
     /// Wall distance along `out`, averaged along the arc.
@@ -134,19 +134,19 @@ impl Track {
         let lumen = Lumen::new(colon);
         let n = lumen.rings();
         let arc = lumen.arc().to_vec();
-        let centre: Vec<D3> = (0..n).map(|i| lumen.point(i)).collect();
-        let normal: Vec<D3> = (0..n).map(|i| lumen.normal(i)).collect();
-        let kappa: Vec<D3> = (0..n)
+        let centre: Vec<V3d> = (0..n).map(|i| lumen.point(i)).collect();
+        let normal: Vec<V3d> = (0..n).map(|i| lumen.normal(i)).collect();
+        let kappa: Vec<V3d> = (0..n)
             .map(|i| {
                 let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
                 let ds = arc[b] - arc[a];
-                if ds > 0.0 { (normal[b] - normal[a]) / ds } else { D3::zeros() }
+                if ds > 0.0 { (normal[b] - normal[a]) / ds } else { V3d::zeros() }
             })
             .collect();
         let kappa = smooth_along(&kappa, &arc, KAPPA_SMOOTHING_MM);
         let mut out = Vec::with_capacity(n);
         let mut beta = Vec::with_capacity(n);
-        let mut prev: Option<D3> = None;
+        let mut prev: Option<V3d> = None;
         for i in 0..n {
             let k = kappa[i] - normal[i] * kappa[i].dot(&normal[i]);
             let mag = k.norm();
@@ -180,7 +180,7 @@ struct Event {
 
 /// Where the scope is in one frame, before deformation.
 struct Pose {
-    points: Vec<D3>,
+    points: Vec<V3d>,
     arc: Vec<f64>,
     /// Whether each control point is inside the colon.
     inside: Vec<bool>,
@@ -217,11 +217,11 @@ impl Insertion {
             let ramp = smoothstep((depth - s) / TIP_FREE_MM) * smoothstep(s / ANUS_FREE_MM);
             t.beta[i] * ramp * (t.r_out[i] - r + press).max(0.0)
         };
-        let bent: Vec<D3> = (0..=itip).map(|i| t.centre[i] + t.out[i] * offset(i)).collect();
+        let bent: Vec<V3d> = (0..=itip).map(|i| t.centre[i] + t.out[i] * offset(i)).collect();
         // The scope is stiffer than the lumen is wiggly: smooth the path, then keep it in the
         // lumen (the scope's surface at most `press` past the rest wall, in its ring's plane).
         let smooth = smooth_along(&bent, &t.arc[..=itip], PATH_SMOOTHING_MM);
-        let mut path: Vec<D3> = Vec::with_capacity(itip + 2);
+        let mut path: Vec<V3d> = Vec::with_capacity(itip + 2);
         let mut path_s: Vec<f64> = Vec::with_capacity(itip + 2);
         let dx = self.spacing();
         for (i, q) in smooth.into_iter().enumerate() {

@@ -44,7 +44,8 @@
 //! No friction (a lubricated colonoscope slides freely; the operator's hard push holds the tip
 //! explicitly).
 
-use crate::rod::{Rod, V3};
+use crate::rod::Rod;
+use lumen_detect::V3d;
 use crate::wall::Wall;
 use lumen_proto::{Contact, ContactKind};
 
@@ -73,7 +74,7 @@ pub struct ContactConstraint {
     a: [u32; 2],
     wa: [f64; 2],
     other: Other,
-    n: V3,
+    n: V3d,
     c0: f64,
 }
 
@@ -86,13 +87,13 @@ pub struct ContactSet {
     /// Which of `prev` are carried into this frame.
     carry: Vec<u32>,
     /// This frame's interior normals per rod sample, at most [`WALLS`] (zero: none).
-    normal_of: Vec<[V3; WALLS]>,
+    normal_of: Vec<[V3d; WALLS]>,
     /// Whether each constraint was violated in the current substep.
     hit: Vec<bool>,
     /// The anus plane (a point and the unit normal into the body) and the scope's radius (mm),
     /// if set: contacts of samples further behind it are not answered (see
     /// [`ContactSet::set_body_entry`]).
-    entry: Option<(V3, V3, f64)>,
+    entry: Option<(V3d, V3d, f64)>,
 }
 
 /// The tips a tube contact touches: (ring, spoke), (ring, spoke+1), (ring+1, spoke),
@@ -103,8 +104,8 @@ fn tips_of(c: &Contact, spokes: usize) -> [u32; 4] {
     [(i * spokes + k) as u32, (i * spokes + k1) as u32, ((i + 1) * spokes + k) as u32, ((i + 1) * spokes + k1) as u32]
 }
 
-fn v3(a: [f32; 3]) -> V3 {
-    V3::new(a[0] as f64, a[1] as f64, a[2] as f64)
+fn v3(a: [f32; 3]) -> V3d {
+    V3d::new(a[0] as f64, a[1] as f64, a[2] as f64)
 }
 
 /// Whether a contact is one this simulation answers: the scope (`rod_body`) against the colon
@@ -145,7 +146,7 @@ impl ContactSet {
     /// radius of the plane, where the sample's surface is in the body. Unanswered there, a
     /// sample entering the body could already be a millimetre into the wall by the frame it
     /// crosses the plane (`docs/decisions/sim.md`).
-    pub fn set_body_entry(&mut self, origin: V3, dir: V3, radius_mm: f64) {
+    pub fn set_body_entry(&mut self, origin: V3d, dir: V3d, radius_mm: f64) {
         self.entry = Some((origin, dir, radius_mm));
     }
 
@@ -176,7 +177,7 @@ impl ContactSet {
     /// constraints use as touched (before [`Wall::settle`]).
     pub fn touch(&mut self, contacts: &[Contact], rod_body: u16, tube_body: u16, rod: &Rod, wall: &mut Wall) {
         for v in self.normal_of.iter_mut() {
-            *v = [V3::zeros(); WALLS];
+            *v = [V3d::zeros(); WALLS];
         }
         for c in contacts {
             if usable(c, rod_body, tube_body) && interior(c, wall) && self.answered(c, rod) {
@@ -187,9 +188,9 @@ impl ContactSet {
                 }
                 let s = c.sample as usize;
                 if self.normal_of.len() <= s {
-                    self.normal_of.resize(s + 1, [V3::zeros(); WALLS]);
+                    self.normal_of.resize(s + 1, [V3d::zeros(); WALLS]);
                 }
-                if let Some(slot) = self.normal_of[s].iter_mut().find(|n| **n == V3::zeros()) {
+                if let Some(slot) = self.normal_of[s].iter_mut().find(|n| **n == V3d::zeros()) {
                     *slot = v3(c.normal);
                 }
             }
@@ -197,7 +198,7 @@ impl ContactSet {
         let cos = Self::CARRY_ANGLE_DEG.to_radians().cos();
         self.carry.clear();
         for (i, k) in self.prev.iter().enumerate() {
-            let now = self.normal_of.get(k.sample as usize).copied().unwrap_or([V3::zeros(); WALLS]);
+            let now = self.normal_of.get(k.sample as usize).copied().unwrap_or([V3d::zeros(); WALLS]);
             // Carried unless one of the sample's walls now is the same face (a zero normal, no
             // contact, is never within the angle).
             if now.iter().all(|n| n.dot(&k.n) < cos) {

@@ -54,7 +54,8 @@ pub mod world;
 
 pub use lumen_proto::Contact;
 pub use operator::{Action, Operator, Phase, Script};
-pub use rod::{Rod, RodParams, V3};
+pub use lumen_detect::V3d;
+pub use rod::{Rod, RodParams};
 pub use wall::{Wall, WallParams};
 pub use config::{SimConfig, SimParams};
 pub use world::{ContactSource, FnSource, FrameReport, InProcess, SimError, SourceError, World};

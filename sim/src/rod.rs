@@ -32,11 +32,10 @@
 //! `x <- x + v h`, constraints, `v <- (x - x_prev) / h`. Everything is deterministic: plain
 //! loops in a fixed order, no randomness.
 
-use nalgebra::Vector3;
 
-/// The vector type of the physics (`f64`: gravity's step `g h^2` is far below `f32`'s
-/// resolution at colon coordinates).
-pub type V3 = Vector3<f64>;
+// The physics runs in `f64` (`lumen_detect::V3d`): gravity's step `g h^2` is far below `f32`'s
+// resolution at colon coordinates.
+use lumen_detect::V3d;
 
 /// Kilograms of mass per kg mm^3/s^2 of EI: `1 N m^2 = 1e9 kg mm^3 / s^2`.
 const NM2_TO_KG_MM3_S2: f64 = 1e9;
@@ -97,14 +96,14 @@ impl RodParams {
 pub struct Rod {
     pub params: RodParams,
     /// Positions, mm, tip first.
-    pub x: Vec<V3>,
+    pub x: Vec<V3d>,
     /// Velocities, mm/s.
-    pub v: Vec<V3>,
+    pub v: Vec<V3d>,
     /// Inverse masses, 1/kg (0: the point does not move).
     pub inv_mass: Vec<f64>,
     /// Rest curvature vector `d_i` of each point (zero at the two ends).
-    pub rest_bend: Vec<V3>,
-    prev: Vec<V3>,
+    pub rest_bend: Vec<V3d>,
+    prev: Vec<V3d>,
     rest_len: f64,
     bend_compliance: f64,
 }
@@ -114,24 +113,24 @@ impl Rod {
     ///
     /// # Panics
     /// If the count differs from `params.points` or is below 3.
-    pub fn new(params: RodParams, points: Vec<V3>) -> Self {
+    pub fn new(params: RodParams, points: Vec<V3d>) -> Self {
         assert!(params.points >= 3 && points.len() == params.points, "{} points for a rod of {}", points.len(), params.points);
         let n = points.len();
         let w = 1.0 / params.point_mass_kg();
         Self {
             rest_len: params.segment_mm(),
             bend_compliance: params.bend_compliance(),
-            v: vec![V3::zeros(); n],
+            v: vec![V3d::zeros(); n],
             prev: points.clone(),
             inv_mass: vec![w; n],
-            rest_bend: vec![V3::zeros(); n],
+            rest_bend: vec![V3d::zeros(); n],
             x: points,
             params,
         }
     }
 
     /// A straight rod from `tip` along unit `dir` (towards the handle).
-    pub fn straight(params: RodParams, tip: V3, dir: V3) -> Self {
+    pub fn straight(params: RodParams, tip: V3d, dir: V3d) -> Self {
         let l0 = params.segment_mm();
         let pts = (0..params.points).map(|i| tip + dir * (l0 * i as f64)).collect();
         Self::new(params, pts)
@@ -175,12 +174,12 @@ impl Rod {
     }
 
     /// Starts a substep: damping, gravity `g` (mm/s^2), and the explicit position update.
-    pub fn predict(&mut self, h: f64, g: V3) {
+    pub fn predict(&mut self, h: f64, g: V3d) {
         let damp = 1.0 / (1.0 + self.params.damping_per_s * h);
         for i in 0..self.x.len() {
             self.prev[i] = self.x[i];
             if self.inv_mass[i] == 0.0 {
-                self.v[i] = V3::zeros();
+                self.v[i] = V3d::zeros();
                 continue;
             }
             self.v[i] = self.v[i] * damp + g * h;
@@ -253,15 +252,15 @@ impl Rod {
     /// (perpendicular to the handle's last segment, in the handle's frame) carried from the
     /// handle to the tip by parallel transport (projection onto each segment's normal plane,
     /// which is the rotation-minimising frame for segments that turn by less than 90 degrees).
-    pub fn transported_normals(&self, reference: V3, out: &mut Vec<V3>) {
+    pub fn transported_normals(&self, reference: V3d, out: &mut Vec<V3d>) {
         let n = self.x.len();
         out.clear();
-        out.resize(n, V3::zeros());
+        out.resize(n, V3d::zeros());
         let mut r = reference;
         // Segment j joins points j and j + 1; walk from the handle's segment to the tip's.
-        let mut seg = vec![V3::zeros(); n - 1];
+        let mut seg = vec![V3d::zeros(); n - 1];
         for j in (0..n - 1).rev() {
-            let t = (self.x[j + 1] - self.x[j]).try_normalize(1e-12).unwrap_or_else(V3::x);
+            let t = (self.x[j + 1] - self.x[j]).try_normalize(1e-12).unwrap_or_else(V3d::x);
             let p = r - t * r.dot(&t);
             r = p.try_normalize(1e-12).unwrap_or(r);
             seg[j] = r;
@@ -276,11 +275,11 @@ impl Rod {
     /// Angulates the distal bending section: the first `section` joints (points `1..=section`)
     /// get a rest turning angle of `angle / section` each, towards `normals[i]` (see
     /// [`Rod::transported_normals`]); every other point is straight at rest.
-    pub fn set_tip_bend(&mut self, angle: f64, section: usize, normals: &[V3]) {
+    pub fn set_tip_bend(&mut self, angle: f64, section: usize, normals: &[V3d]) {
         let n = self.x.len();
         let section = section.min(n - 2);
         for d in self.rest_bend.iter_mut() {
-            *d = V3::zeros();
+            *d = V3d::zeros();
         }
         if angle == 0.0 || section == 0 {
             return;
@@ -312,7 +311,7 @@ mod tests {
     #[test]
     fn a_bent_rest_shape_is_reached() {
         let p = RodParams { points: 12, length_mm: 110.0, ..RodParams::default() };
-        let mut rod = Rod::straight(p, V3::zeros(), V3::x());
+        let mut rod = Rod::straight(p, V3d::zeros(), V3d::x());
         let mut normals = Vec::new();
         rod.inv_mass[11] = 0.0;
         rod.inv_mass[10] = 0.0;
@@ -320,17 +319,17 @@ mod tests {
         for step in 0..16 * 3000 {
             // As the world does once per frame: the bend follows the rod's own frame.
             if step % 16 == 0 {
-                rod.transported_normals(V3::y(), &mut normals);
+                rod.transported_normals(V3d::y(), &mut normals);
                 rod.set_tip_bend(std::f64::consts::FRAC_PI_2, 10, &normals);
             }
-            rod.predict(h, V3::zeros());
+            rod.predict(h, V3d::zeros());
             rod.solve_bend(h);
             rod.solve_stretch(h, false);
             rod.update_velocity(h);
         }
         // The tip's segment has turned by about 90 degrees towards +y.
         let t = (rod.x[0] - rod.x[1]).normalize();
-        let angle = t.dot(&-V3::x()).clamp(-1.0, 1.0).acos();
+        let angle = t.dot(&-V3d::x()).clamp(-1.0, 1.0).acos();
         assert!((angle.to_degrees() - 90.0).abs() < 5.0, "{}", angle.to_degrees());
         assert!(rod.x[0].y > 30.0, "{:?}", rod.x[0]);
     }

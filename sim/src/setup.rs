@@ -12,7 +12,8 @@
 //! - [`sigmoid_bend_mm`]: where the hard push happens: the sharpest bend of the midline in the
 //!   sigmoid's stretch of the colon.
 
-use crate::rod::{RodParams, V3};
+use crate::rod::RodParams;
+use lumen_detect::V3d;
 use crate::config::SimParams;
 use lumen_detect::Tube;
 use lumen_proto::{BodySpec, ContactKind, PairSpec, SceneSpec, Shape};
@@ -45,17 +46,17 @@ pub use lumen_import::GCA_INFLATE;
 /// The scope's control points (tip first) with its tip `tip_depth_mm` along the colon's
 /// midline: through the lumen, on the outer side of bends but not into the wall, and straight
 /// back out of the first ring for the part that is not inside.
-pub fn insertion_pose(tube: &Tube, rod: &RodParams, tip_depth_mm: f64) -> Vec<V3> {
+pub fn insertion_pose(tube: &Tube, rod: &RodParams, tip_depth_mm: f64) -> Vec<V3d> {
     let ins = Insertion { length_mm: rod.length_mm as f32, radius_mm: rod.radius_mm as f32, points: rod.points, press_mm: 0.0, residual_mm: 0.0, escapes: false };
     let f = ins.frame(tube, tip_depth_mm as f32);
-    f.scope.points.iter().map(|p| V3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect()
+    f.scope.points.iter().map(|p| V3d::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect()
 }
 
 /// The insertion axis: the first ring's control point and the unit direction into the colon.
-pub fn insertion_axis(tube: &Tube) -> (V3, V3) {
+pub fn insertion_axis(tube: &Tube) -> (V3d, V3d) {
     let lumen = Lumen::new(tube);
     let p = tube.points[0];
-    (V3::new(p[0] as f64, p[1] as f64, p[2] as f64), lumen.normal(0))
+    (V3d::new(p[0] as f64, p[1] as f64, p[2] as f64), lumen.normal(0))
 }
 
 /// Arc length of the midline (mm) at its sharpest bend between 12% and 35% of its length
@@ -66,7 +67,7 @@ pub fn insertion_axis(tube: &Tube) -> (V3, V3) {
 /// colon inflated twice is not: see [`valid_bends`].) Falls back to the sharpest bend if no
 /// place qualifies.
 pub fn sigmoid_bend_mm(tube: &Tube) -> f64 {
-    let p: Vec<V3> = tube.points.iter().map(|p| V3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect();
+    let p: Vec<V3d> = tube.points.iter().map(|p| V3d::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect();
     let mut arc = vec![0.0; p.len()];
     for i in 1..p.len() {
         arc[i] = arc[i - 1] + (p[i] - p[i - 1]).norm();
@@ -111,7 +112,7 @@ pub fn valid_bends(tube: &Tube) -> Vec<bool> {
     let lm = Lumen::new(tube);
     let n = lm.rings();
     let arc = lm.arc().to_vec();
-    let pts: Vec<V3> = (0..n).map(|i| lm.point(i)).collect();
+    let pts: Vec<V3d> = (0..n).map(|i| lm.point(i)).collect();
     (0..n)
         .map(|i| {
             let r = lm.max_radius(i);

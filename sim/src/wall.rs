@@ -41,7 +41,7 @@
 //! (a block: the tips whose nearest node is the same) and rewrites to rest the blocks that were
 //! around them last frame.
 
-use crate::rod::V3;
+use lumen_detect::V3d;
 use lumen_detect::Tube;
 
 /// Slot value: the node is inactive (at rest).
@@ -279,9 +279,9 @@ impl Wall {
     }
 
     /// Unit rest direction of tip `tip` (zero for a zero spoke).
-    pub fn tip_dir(&self, tip: u32) -> V3 {
+    pub fn tip_dir(&self, tip: u32) -> V3d {
         let d = self.dir[tip as usize];
-        V3::new(d[0] as f64, d[1] as f64, d[2] as f64)
+        V3d::new(d[0] as f64, d[1] as f64, d[2] as f64)
     }
 
     /// Nearest node column of spoke `k` and the spoke's offset from it, in columns.

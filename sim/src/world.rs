@@ -44,7 +44,8 @@
 
 use crate::contact::ContactSet;
 use crate::operator::{Drive, Operator};
-use crate::rod::{Rod, V3};
+use crate::rod::Rod;
+use lumen_detect::V3d;
 use crate::config::SimConfig;
 use crate::setup;
 use crate::wall::Wall;
@@ -223,13 +224,13 @@ pub struct World<S: ContactSource> {
     scene: ValidScene,
     layout: StateLayout,
     rest_colon: Vec<f32>,
-    axis_origin: V3,
-    axis_dir: V3,
-    axis_ref: V3,
-    hold: Option<V3>,
-    normals: Vec<V3>,
+    axis_origin: V3d,
+    axis_dir: V3d,
+    axis_ref: V3d,
+    hold: Option<V3d>,
+    normals: Vec<V3d>,
     /// The curvature vectors of the initial shape (released over `relax_s`).
-    initial_bend: Vec<V3>,
+    initial_bend: Vec<V3d>,
     fit_iterations: u32,
     speed_limited: u32,
     frame: u64,
@@ -257,7 +258,7 @@ impl World<InProcess> {
 
 /// The scope's starting control points: laid by [`setup::insertion_pose`] with its tip at
 /// `config.start_depth_mm`, or 20 mm before the sigmoid's sharpest bend.
-fn start_pose(tube: &Tube, config: &SimConfig) -> Vec<V3> {
+fn start_pose(tube: &Tube, config: &SimConfig) -> Vec<V3d> {
     let depth = config.start_depth_mm.unwrap_or_else(|| (setup::sigmoid_bend_mm(tube) - 20.0).max(0.0));
     setup::insertion_pose(tube, &config.rod, depth)
 }
@@ -272,21 +273,21 @@ impl<S: ContactSource> World<S> {
     }
 
     /// As [`World::new`] with the scope's initial control points given (tip first).
-    pub fn with_rod(tube: &Tube, config: SimConfig, source: S, points: Vec<V3>) -> Result<Self, SimError> {
+    pub fn with_rod(tube: &Tube, config: SimConfig, source: S, points: Vec<V3d>) -> Result<Self, SimError> {
         let scene = setup::scene_spec(tube, &config.rod, &config.sim).validate().map_err(SimError::Spec)?;
         Self::build(tube, config, source, points, scene)
     }
 
     /// The simulation of `tube` for its validated `scene` (the spec of [`setup::scene_spec`]).
-    fn build(tube: &Tube, config: SimConfig, source: S, points: Vec<V3>, scene: ValidScene) -> Result<Self, SimError> {
+    fn build(tube: &Tube, config: SimConfig, source: S, points: Vec<V3d>, scene: ValidScene) -> Result<Self, SimError> {
         let layout = scene.layout().clone();
         let mut rest_colon = Vec::with_capacity(layout.bodies[0].floats());
         tube.write_state(&mut rest_colon);
         let (axis_origin, axis_dir) = setup::insertion_axis(tube);
-        let up = if axis_dir.y.abs() < 0.9 { V3::y() } else { V3::x() };
+        let up = if axis_dir.y.abs() < 0.9 { V3d::y() } else { V3d::x() };
         let axis_ref = (up - axis_dir * up.dot(&axis_dir)).normalize();
         let initial_bend = (0..points.len())
-            .map(|i| if i == 0 || i + 1 == points.len() { V3::zeros() } else { points[i - 1] - points[i] * 2.0 + points[i + 1] })
+            .map(|i| if i == 0 || i + 1 == points.len() { V3d::zeros() } else { points[i - 1] - points[i] * 2.0 + points[i + 1] })
             .collect();
         let rod = Rod::new(config.rod.clone(), points);
         let wall = Wall::new(tube, config.wall.clone());
@@ -341,7 +342,7 @@ impl<S: ContactSource> World<S> {
             self.wall.settle(self.config.sim.dt_s);
             self.contacts.build(&self.raw, SCOPE, TUBE, &self.rod, &self.wall);
             for _ in 0..n {
-                self.rod.predict(h, V3::zeros());
+                self.rod.predict(h, V3d::zeros());
                 self.wall.predict(h);
                 self.rod.solve_bend(h);
                 self.rod.solve_stretch(h, false);
@@ -351,7 +352,7 @@ impl<S: ContactSource> World<S> {
                 for _ in 0..self.config.sim.contact_passes {
                     self.contacts.project(&mut self.rod, &mut self.wall);
                 }
-                self.rod.v.iter_mut().for_each(|v| *v = V3::zeros());
+                self.rod.v.iter_mut().for_each(|v| *v = V3d::zeros());
                 self.wall.update_velocity(h);
                 self.wall.zero_velocities();
             }
@@ -496,7 +497,7 @@ impl<S: ContactSource> World<S> {
         let p = self.config.sim.clone();
         let n = p.substeps.max(1);
         let h = p.dt_s / n as f64;
-        let g = V3::from(p.gravity_mm_s2);
+        let g = V3d::from(p.gravity_mm_s2);
         let (o, a) = (self.axis_origin, self.axis_dir);
         let last = self.rod.len() - 1;
         let a_hand = 1.0 / (p.hand_stiffness_n_per_m * h * h);

@@ -3,7 +3,7 @@
 
 use lumen_detect::Tube;
 use lumen_proto::Contact;
-use lumen_sim::{setup, Action, FnSource, InProcess, Phase, Rod, RodParams, Script, SimConfig, SourceError, World, V3};
+use lumen_sim::{setup, Action, FnSource, InProcess, Phase, Rod, RodParams, Script, SimConfig, SourceError, World, V3d};
 use std::time::Instant;
 
 /// A straight tube along +x: `rings` rings 1.2 mm apart, 32 spokes of `radius` mm.
@@ -23,8 +23,8 @@ fn short_rod(length_mm: f64) -> RodParams {
 }
 
 /// Points of a straight rod from `tip` towards -x, `rod.points` of them.
-fn rod_points(rod: &RodParams, tip: V3) -> Vec<V3> {
-    (0..rod.points).map(|i| tip - V3::x() * (rod.segment_mm() * i as f64)).collect()
+fn rod_points(rod: &RodParams, tip: V3d) -> Vec<V3d> {
+    (0..rod.points).map(|i| tip - V3d::x() * (rod.segment_mm() * i as f64)).collect()
 }
 
 fn hold_script(seconds: f64) -> Script {
@@ -34,11 +34,11 @@ fn hold_script(seconds: f64) -> Script {
 #[test]
 fn a_straight_rod_at_rest_stays_straight_and_keeps_its_length() {
     // Free: falling under gravity for one second, no contacts.
-    let mut rod = Rod::straight(RodParams::default(), V3::new(0.0, 0.0, 0.0), V3::x());
+    let mut rod = Rod::straight(RodParams::default(), V3d::new(0.0, 0.0, 0.0), V3d::x());
     let l0 = rod.rest_length();
     let h = 1e-3 / 16.0;
     for step in 0..16_000 {
-        rod.predict(h, V3::new(0.0, -9810.0, 0.0));
+        rod.predict(h, V3d::new(0.0, -9810.0, 0.0));
         rod.solve_bend(h);
         rod.solve_stretch(h, step % 2 == 1);
         rod.update_velocity(h);
@@ -51,7 +51,7 @@ fn a_straight_rod_at_rest_stays_straight_and_keeps_its_length() {
     // Lying on the bottom of a straight colon under gravity, the operator holding the handle.
     let tube = straight_tube(400, 20.0);
     let params = short_rod(300.0);
-    let pts = rod_points(&params, V3::new(380.0, -13.5, 0.0));
+    let pts = rod_points(&params, V3d::new(380.0, -13.5, 0.0));
     let config = SimConfig { rod: params, script: hold_script(1.0), ..SimConfig::default() };
     let spec = setup::scene_spec(&tube, &config.rod, &config.sim);
     let mut world = World::with_rod(&tube, config, InProcess::new(&spec.validate().unwrap()), pts).unwrap();
@@ -73,7 +73,7 @@ fn a_rod_pushed_into_a_straight_tube_is_held_inside() {
     // with up to 40 N while its tip is held: it buckles against the wall.
     let tube = straight_tube(400, 20.0);
     let params = short_rod(500.0);
-    let pts = rod_points(&params, V3::new(250.0, 0.0, 0.0));
+    let pts = rod_points(&params, V3d::new(250.0, 0.0, 0.0));
     let script = Script {
         phases: vec![
             Phase { name: "settle", duration_s: 0.05, action: Action::Hold },
@@ -128,7 +128,7 @@ fn the_scripted_hard_push_on_the_generated_colon_stays_inside_and_is_determinist
     let (a, ra, force) = run(600);
     assert!(force > 30.0, "the hard push pushed hard: {force:.1} N");
     let (b, rb, _) = run(600);
-    let bits = |x: &[V3]| x.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
+    let bits = |x: &[V3d]| x.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
     assert_eq!(bits(&a), bits(&b), "two runs differ");
     assert_eq!((ra.contacts, ra.max_penetration_mm.to_bits(), ra.active_nodes), (rb.contacts, rb.max_penetration_mm.to_bits(), rb.active_nodes));
 }
@@ -157,7 +157,7 @@ fn a_closure_source_gives_the_same_run_as_in_process_detection() {
         assert_eq!((ra.contacts, ra.max_penetration_mm.to_bits(), ra.escaped), (rb.contacts, rb.max_penetration_mm.to_bits(), rb.escaped));
     }
     assert_eq!(calls.get() - start, 200, "one detection per frame");
-    let bits = |w: &[V3]| w.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
+    let bits = |w: &[V3d]| w.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<u64>>();
     assert_eq!(bits(&a.rod().x), bits(&b.rod().x));
 }
 
