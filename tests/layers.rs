@@ -34,11 +34,7 @@ struct Workspace {
 
 fn workspace() -> Workspace {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args(["metadata", "--format-version", "1", "--no-deps", "--offline", "--manifest-path"])
-        .arg(root().join("Cargo.toml"))
-        .output()
-        .expect("running cargo metadata");
+    let out = Command::new(cargo).args(["metadata", "--format-version", "1", "--no-deps", "--offline", "--manifest-path"]).arg(root().join("Cargo.toml")).output().expect("running cargo metadata");
     assert!(out.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&out.stderr));
     let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
     let mut folders = BTreeMap::new();
@@ -62,7 +58,9 @@ fn lock_graph() -> BTreeMap<String, BTreeSet<String>> {
         let name = package.lines().find_map(|l| l.strip_prefix("name = ")).expect("a package name").trim_matches('"').to_owned();
         let deps: BTreeSet<String> = match package.split("dependencies = [").nth(1) {
             // Entries are "name" or "name version" (when two versions are locked).
-            Some(list) => list.split(']').next().unwrap().lines().map(|l| l.trim().trim_end_matches(',').trim_matches('"')).filter(|l| !l.is_empty()).map(|l| l.split(' ').next().unwrap().to_owned()).collect(),
+            Some(list) => {
+                list.split(']').next().unwrap().lines().map(|l| l.trim().trim_end_matches(',').trim_matches('"')).filter(|l| !l.is_empty()).map(|l| l.split(' ').next().unwrap().to_owned()).collect()
+            }
             None => BTreeSet::new(),
         };
         graph.entry(name).or_default().extend(deps);

@@ -32,12 +32,9 @@ fn bench(c: &mut Criterion) {
     g.sample_size(40).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
     for x in [1u32, 2, 4] {
         // `signed+nearest`: contacts at the nearest point of the continuous wall.
-        for (name, method, prevalidated, nearest) in [
-            ("signed", Method::Signed, true, false),
-            ("signed+nearest", Method::Signed, true, true),
-            ("signed+check", Method::Signed, false, false),
-            ("thesis", Method::Thesis, false, false),
-        ] {
+        for (name, method, prevalidated, nearest) in
+            [("signed", Method::Signed, true, false), ("signed+nearest", Method::Signed, true, true), ("signed+check", Method::Signed, false, false), ("thesis", Method::Thesis, false, false)]
+        {
             let (spec, states) = states(method, x);
             let mut d = Detector::new(&spec.validate().unwrap());
             d.set_nearest(nearest);

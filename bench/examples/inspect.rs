@@ -12,9 +12,9 @@
 
 use lumen_bench::metrics::{arc_at, QueryPoint, Reported, Truth, TruthParams};
 use lumen_bench::scenes;
-use lumen_scene::{gca, ColonKind};
 use lumen_bench::sweep::pass;
 use lumen_bench::{MethodKind, Options};
+use lumen_scene::{gca, ColonKind};
 
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
@@ -55,18 +55,45 @@ fn main() {
         }
     }
     let t = Truth::new(&ef.colon, &ef.scope, ef.inserted, &ef.arc_mm, scene.spec.alpha, TruthParams { steps, window_mm: 60.0, threads: opts.threads }, &extra);
-    println!("{} B{spokes} x{x} frame {frame} ({} rings; control points inside {}, escaped {:?}); method {}; reference steps {steps}, bound {:.4} mm", kind.name(), scene.rings, ef.inserted, ef.escaped, method.name(), t.bound());
+    println!(
+        "{} B{spokes} x{x} frame {frame} ({} rings; control points inside {}, escaped {:?}); method {}; reference steps {steps}, bound {:.4} mm",
+        kind.name(),
+        scene.rings,
+        ef.inserted,
+        ef.escaped,
+        method.name(),
+        t.bound()
+    );
     let mut e = t.extra().iter();
     for &s in samples {
         let a = e.next().unwrap();
         let r = pts[s].1;
         println!("sample {s} (control point {:.2}) at {:?}, colon arc {:.1} mm", s as f32 / x as f32, pts[s].0, extra.iter().find(|q| q.p == pts[s].0).map_or(0.0, |q| q.arc));
-        println!("  reference: sd {:.4} (depth {:.4}), normal {:?}, wall {:?} (arc {:.1}), local bound {:.4}{}", a.q.sd, a.q.sd + r, a.q.normal, a.q.point, a.wall_arc, a.local_bound, if a.folded { ", NOT JUDGED (fold / other loop)" } else { "" });
+        println!(
+            "  reference: sd {:.4} (depth {:.4}), normal {:?}, wall {:?} (arc {:.1}), local bound {:.4}{}",
+            a.q.sd,
+            a.q.sd + r,
+            a.q.normal,
+            a.q.point,
+            a.wall_arc,
+            a.local_bound,
+            if a.folded { ", NOT JUDGED (fold / other loop)" } else { "" }
+        );
         match contacts.iter().find(|c| c.sample as usize == s) {
             Some(c) => {
                 let at = e.next().unwrap();
                 let w = e.next().unwrap();
-                println!("  {}: depth {:.4}, normal {:?} ({:.2} deg from the reference's), wall {:?} (reference sd there {:.4}{}), place {:?}", method.name(), c.depth, c.normal, lumen_bench::metrics::angle_deg(c.normal, at.q.normal), c.wall, w.q.sd, if w.folded { ", on a fold / other loop" } else { "" }, c.place);
+                println!(
+                    "  {}: depth {:.4}, normal {:?} ({:.2} deg from the reference's), wall {:?} (reference sd there {:.4}{}), place {:?}",
+                    method.name(),
+                    c.depth,
+                    c.normal,
+                    lumen_bench::metrics::angle_deg(c.normal, at.q.normal),
+                    c.wall,
+                    w.q.sd,
+                    if w.folded { ", on a fold / other loop" } else { "" },
+                    c.place
+                );
                 if let Some(p) = c.at {
                     println!("  (computed at {p:?}: reference depth there {:.4})", at.q.sd + r);
                 }

@@ -36,8 +36,8 @@ pub mod scenes;
 pub mod sweep;
 
 pub use baseline::{ParryBaseline, ParryContact, ParryShape};
-pub use report::Report;
 pub use lumen_scene::ColonKind;
+pub use report::Report;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;

@@ -42,8 +42,8 @@
 //! evaluated on the cells (ring segment x spoke pair) whose tips' box, grown by 1 mm, holds the
 //! reference's nearest wall point; both are reported.
 
-use lumen_detect::spline::Cubic;
 use lumen_detect::proto::contact::FLAG_OTHER_WALL;
+use lumen_detect::spline::Cubic;
 use lumen_detect::{Rod, Tube, V3};
 use lumen_oracle::{dense_rod, RefQuery, Reference};
 
@@ -294,7 +294,11 @@ impl Truth {
             let c = k as f32 * h;
             let i0 = ring_arc.partition_point(|&a| a < c - h).saturating_sub(2);
             let i1 = (ring_arc.partition_point(|&a| a <= c + h) + 2).min(rings);
-            if i1 - i0 < 4 { i0.min(rings.saturating_sub(4))..(i0 + 4).min(rings) } else { i0..i1 }
+            if i1 - i0 < 4 {
+                i0.min(rings.saturating_sub(4))..(i0 + 4).min(rings)
+            } else {
+                i0..i1
+            }
         };
         let answers = std::sync::Mutex::new(vec![None::<Answer>; queries.len()]);
         let bound = std::sync::Mutex::new(0.0f32);
@@ -335,9 +339,7 @@ impl Truth {
         let mut all: Vec<Answer> = answers.into_inner().unwrap().into_iter().map(|a| a.expect("every query answered")).collect();
         let extra_ans = all.split_off(n);
         let dense: Vec<Dense> = (0..n).map(|i| Dense { p: pts[i].0, r: pts[i].1, q: all[i].q }).collect();
-        let seg_arc = (0..segs)
-            .map(|j| (0..DENSE_PER_SEGMENT).map(|m| dist(dense[j * DENSE_PER_SEGMENT + m].p, dense[j * DENSE_PER_SEGMENT + m + 1].p)).sum())
-            .collect();
+        let seg_arc = (0..segs).map(|j| (0..DENSE_PER_SEGMENT).map(|m| dist(dense[j * DENSE_PER_SEGMENT + m].p, dense[j * DENSE_PER_SEGMENT + m + 1].p)).sum()).collect();
         Truth { dense, dense_ans: all, extra: extra_ans, seg_arc, bound: bound.into_inner().unwrap(), windows: wins.len(), folded_cells: cells.folded_cells(), steps: params.steps }
     }
 
@@ -384,7 +386,11 @@ impl Truth {
     /// Judged samples at precision `x` (a divisor of [`DENSE_PER_SEGMENT`]):
     /// `segments * x + 1` (none if no segment is judged).
     pub fn samples(&self, x: usize) -> usize {
-        if self.seg_arc.is_empty() { 0 } else { self.seg_arc.len() * x + 1 }
+        if self.seg_arc.is_empty() {
+            0
+        } else {
+            self.seg_arc.len() * x + 1
+        }
     }
 
     /// Index of sample `s` at precision `x` among the dense points.
@@ -460,14 +466,7 @@ pub struct Place {
 impl Reported {
     /// A `lumen-detect` contact (computed at its sample).
     pub fn of_contact(c: &lumen_detect::Contact) -> Self {
-        Self {
-            sample: c.sample,
-            at: None,
-            depth: c.depth,
-            normal: c.normal,
-            wall: c.point_b,
-            place: Some(Place { ring: c.index_b, spoke: c.spoke_b, param: c.param_b, flags: c.flags }),
-        }
+        Self { sample: c.sample, at: None, depth: c.depth, normal: c.normal, wall: c.point_b, place: Some(Place { ring: c.index_b, spoke: c.spoke_b, param: c.param_b, flags: c.flags }) }
     }
 
     /// A parry baseline contact (computed at its capsule's axis point).
@@ -672,11 +671,8 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
         }
         tally.contacts += 1;
         let q = ans.q;
-        let (ref_depth, nerr) = if other_wall {
-            (r - dist(p, wall.q.point), angle_deg(c.normal, wall.q.normal))
-        } else {
-            (q.sd + r, angle_deg(c.normal, q.normal).min(angle_deg(c.normal, wall.q.normal)))
-        };
+        let (ref_depth, nerr) =
+            if other_wall { (r - dist(p, wall.q.point), angle_deg(c.normal, wall.q.normal)) } else { (q.sd + r, angle_deg(c.normal, q.normal).min(angle_deg(c.normal, wall.q.normal))) };
         let err = (c.depth - ref_depth).abs();
         let lb = ans.local_bound;
         tally.depth_err.push(err);

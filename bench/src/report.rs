@@ -120,13 +120,7 @@ impl Machine {
 /// `Cargo.lock`), or "unknown" without git.
 pub fn git_revision() -> String {
     let git = |args: &[&str]| {
-        std::process::Command::new("git")
-            .args(args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .and_then(|o| String::from_utf8(o.stdout).ok())
+        std::process::Command::new("git").args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().ok().filter(|o| o.status.success()).and_then(|o| String::from_utf8(o.stdout).ok())
     };
     let Some(rev) = git(&["rev-parse", "--short", "HEAD"]).map(|s| s.trim().to_owned()).filter(|s| !s.is_empty()) else {
         return "unknown".into();
@@ -262,11 +256,7 @@ impl Report {
     pub fn markdown(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "# lumen bench detect{}\n", if self.quick { " (quick)" } else { "" });
-        let _ = writeln!(
-            s,
-            "Revision `{}`; {} ({} cores usable, single thread used); {:.0} s in all.\n",
-            self.git_revision, self.machine.cpu, self.machine.cores, self.wall_s
-        );
+        let _ = writeln!(s, "Revision `{}`; {} ({} cores usable, single thread used); {:.0} s in all.\n", self.git_revision, self.machine.cpu, self.machine.cores, self.wall_s);
         let (x, b) = (self.default_precision, self.default_spokes);
         let _ = writeln!(s, "## At the default precision (x = {x}, B = {b})\n");
         s.push_str(Self::table_header());
@@ -283,7 +273,19 @@ impl Report {
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.3} | {} |",
-                    d.scene, d.how, d.method, d.x, d.spokes, d.rings, d.median_us, d.p99_us, d.rings_doubled, d.median_us_doubled, d.p99_us_doubled, d.ratio_of_medians, f(d.pairwise_ratio, 3)
+                    d.scene,
+                    d.how,
+                    d.method,
+                    d.x,
+                    d.spokes,
+                    d.rings,
+                    d.median_us,
+                    d.p99_us,
+                    d.rings_doubled,
+                    d.median_us_doubled,
+                    d.p99_us_doubled,
+                    d.ratio_of_medians,
+                    f(d.pairwise_ratio, 3)
                 );
             }
             s.push('\n');
@@ -458,12 +460,7 @@ impl Report {
         {
             let root = SVGBackend::with_string(&mut out, (620 * panels as u32, 600)).into_drawing_area();
             root.fill(&WHITE)?;
-            let title = format!(
-                "Lumen collision methods: speed against error ({}, rev {}, {})",
-                if self.quick { "quick sweep" } else { "full sweep" },
-                self.git_revision,
-                self.machine.cpu
-            );
+            let title = format!("Lumen collision methods: speed against error ({}, rev {}, {})", if self.quick { "quick sweep" } else { "full sweep" }, self.git_revision, self.machine.cpu);
             let (top, rest) = root.split_vertically(40);
             top.draw(&Text::new(title, (12, 12), ("sans-serif", 18).into_font()))?;
             let (body, foot) = rest.split_vertically(540);
@@ -484,12 +481,8 @@ impl Report {
             };
             for (area, scene) in areas.iter().zip(&scenes) {
                 // Both axes in log10, labelled with the values themselves.
-                let pts: Vec<(&Run, f64, f64)> = self
-                    .runs
-                    .iter()
-                    .filter(|r| &r.scene == scene && r.median_us > 0.0)
-                    .map(|r| (r, r.median_us.log10(), r.metrics.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR).log10()))
-                    .collect();
+                let pts: Vec<(&Run, f64, f64)> =
+                    self.runs.iter().filter(|r| &r.scene == scene && r.median_us > 0.0).map(|r| (r, r.median_us.log10(), r.metrics.depth_err_p99_mm.unwrap_or(FLOOR).max(FLOOR).log10())).collect();
                 if pts.is_empty() {
                     continue;
                 }
@@ -502,13 +495,8 @@ impl Report {
                 }
                 let (x0, x1) = (x0 - 0.2, x1 + 0.2);
                 let (y0, y1) = (y0 - 0.3, y1 + 0.3);
-                let mut chart = ChartBuilder::on(area)
-                    .caption(format!("scene: {scene}"), ("sans-serif", 16))
-                    .margin(12)
-                    .x_label_area_size(40)
-                    .y_label_area_size(64)
-                    .build_cartesian_2d(x0..x1, y0..y1)
-                    ?;
+                let mut chart =
+                    ChartBuilder::on(area).caption(format!("scene: {scene}"), ("sans-serif", 16)).margin(12).x_label_area_size(40).y_label_area_size(64).build_cartesian_2d(x0..x1, y0..y1)?;
                 chart
                     .configure_mesh()
                     .x_desc("time per frame, median (us, log)")
@@ -517,14 +505,12 @@ impl Report {
                     .y_labels(12)
                     .x_label_formatter(&|v| short(10f64.powf(*v)))
                     .y_label_formatter(&|v| short(10f64.powf(*v)))
-                    .draw()
-                    ?;
+                    .draw()?;
                 // The 0.05 mm target.
                 let target = 0.05f64.log10();
                 if target > y0 && target < y1 {
                     chart
-                        .draw_series(LineSeries::new(vec![(x0, target), (x1, target)], RGBColor(150, 150, 150).stroke_width(1)))
-                        ?
+                        .draw_series(LineSeries::new(vec![(x0, target), (x1, target)], RGBColor(150, 150, 150).stroke_width(1)))?
                         .label("0.05 mm target")
                         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], RGBColor(150, 150, 150)));
                 }
@@ -537,19 +523,14 @@ impl Report {
                     let mut line: Vec<(f64, f64)> = mine.iter().filter(|p| p.0.spokes == self.default_spokes).map(|p| (p.1, p.2)).collect();
                     line.sort_by(|a, b| a.0.total_cmp(&b.0));
                     chart
-                        .draw_series(LineSeries::new(line, c.stroke_width(2)))
-                        ?
+                        .draw_series(LineSeries::new(line, c.stroke_width(2)))?
                         .label(format!("{m} (line: B = {})", self.default_spokes))
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
-                    chart
-                        .draw_series(mine.iter().map(|p| {
-                            let filled = p.0.spokes == self.default_spokes;
-                            Circle::new((p.1, p.2), 4, if filled { c.filled() } else { c.stroke_width(1) })
-                        }))
-                        ?;
-                    chart
-                        .draw_series(mine.iter().map(|p| Text::new(format!("x{} B{}", p.0.x, p.0.spokes), (p.1, p.2), ("sans-serif", 10).into_font().color(&c))))
-                        ?;
+                    chart.draw_series(mine.iter().map(|p| {
+                        let filled = p.0.spokes == self.default_spokes;
+                        Circle::new((p.1, p.2), 4, if filled { c.filled() } else { c.stroke_width(1) })
+                    }))?;
+                    chart.draw_series(mine.iter().map(|p| Text::new(format!("x{} B{}", p.0.x, p.0.spokes), (p.1, p.2), ("sans-serif", 10).into_font().color(&c))))?;
                 }
                 // Pareto front over every configuration of the scene.
                 let mut sorted: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
@@ -562,19 +543,8 @@ impl Report {
                         front.push((t, e));
                     }
                 }
-                chart
-                    .draw_series(DashedLineSeries::new(front, 6, 4, BLACK.stroke_width(1)))
-                    ?
-                    .label("Pareto front")
-                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::LowerRight)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 12))
-                    .draw()
-                    ?;
+                chart.draw_series(DashedLineSeries::new(front, 6, 4, BLACK.stroke_width(1)))?.label("Pareto front").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+                chart.configure_series_labels().position(SeriesLabelPosition::LowerRight).background_style(WHITE.mix(0.85)).border_style(BLACK).label_font(("sans-serif", 12)).draw()?;
             }
             root.present()?;
         }

@@ -4,9 +4,9 @@
 
 use crate::{Error, Options};
 use lumen_detect::{ContactKind, Rod, Scene, SceneSpec, Tube};
+use lumen_import::ImportParams;
 use lumen_scene::colon::{generate, ColonParams};
 use lumen_scene::endoscope::Insertion;
-use lumen_import::ImportParams;
 use lumen_scene::gca::{self, Source};
 pub use lumen_scene::ColonKind;
 
@@ -142,20 +142,7 @@ pub fn build(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
         }
     }
     let spec = spec.ok_or(Error::NoFrames)?;
-    Ok(SceneData {
-        kind,
-        spokes,
-        rings,
-        spec,
-        floats,
-        states,
-        frames: opts.frames,
-        eval,
-        escaping_frames,
-        depth_mm,
-        import_report,
-        attribution: (kind == ColonKind::Gca).then(gca::attribution),
-    })
+    Ok(SceneData { kind, spokes, rings, spec, floats, states, frames: opts.frames, eval, escaping_frames, depth_mm, import_report, attribution: (kind == ColonKind::Gca).then(gca::attribution) })
 }
 
 /// `base` with its colon extended past its last ring by `extra` rings (straight on along the last

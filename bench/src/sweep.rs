@@ -17,11 +17,11 @@ use crate::baseline::ParryBaseline;
 use crate::metrics::{evaluate, plan, Reported, Tally, Truth, TruthParams};
 use crate::report::{RingsDoubled, Run, SceneInfo};
 use crate::scenes::{self, SceneData};
-use lumen_scene::gca::Source;
-use lumen_scene::ColonKind;
 use crate::{Error, MethodKind, Options};
 use indicatif::ProgressBar;
 use lumen_detect::{Detector, Method, SceneSpec};
+use lumen_scene::gca::Source;
+use lumen_scene::ColonKind;
 use std::time::Instant;
 
 /// The timed figures of one pass (or the per-frame minimum of several).

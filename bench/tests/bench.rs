@@ -2,7 +2,7 @@
 //! the reference, the report's JSON, and a tiny sweep end to end.
 
 use lumen_bench::metrics::{evaluate, plan, Place, Reported, Tally, Truth, TruthParams, DENSE_PER_SEGMENT};
-use lumen_bench::{MethodKind, Options, ParryBaseline, ParryShape, ColonKind};
+use lumen_bench::{ColonKind, MethodKind, Options, ParryBaseline, ParryShape};
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use std::f32::consts::TAU;
 
@@ -307,8 +307,22 @@ fn tiny_sweep_writes_a_complete_report() {
     let runs = json["runs"].as_array().unwrap();
     assert_eq!(runs.len(), 10);
     let keys = [
-        "scene", "method", "x", "spokes", "rings", "median_us", "p99_us", "speedup_vs_thesis", "speedup_vs_parry", "missed", "false_contacts",
-        "depth_err_p99_mm", "depth_err_max_mm", "normal_err_p99_deg", "escaped_detected", "escaped_total",
+        "scene",
+        "method",
+        "x",
+        "spokes",
+        "rings",
+        "median_us",
+        "p99_us",
+        "speedup_vs_thesis",
+        "speedup_vs_parry",
+        "missed",
+        "false_contacts",
+        "depth_err_p99_mm",
+        "depth_err_max_mm",
+        "normal_err_p99_deg",
+        "escaped_detected",
+        "escaped_total",
     ];
     for r in runs {
         for k in keys {

@@ -7,8 +7,8 @@ use common::*;
 use lumen_detect::samples::RodSamples;
 use lumen_detect::view::RodView;
 use lumen_detect::{Contact, Method, Rod, Scene, Tube, V3};
-use lumen_proto::contact::FLAG_OTHER_WALL;
 use lumen_oracle::Reference;
+use lumen_proto::contact::FLAG_OTHER_WALL;
 use std::f32::consts::{FRAC_1_SQRT_2, PI, TAU};
 
 /// Every rod sample as the detector takes it (same spline, same count).
@@ -79,7 +79,15 @@ fn hard_hairpin_180_degrees() {
     let colon = arc(61, 30.0, PI, 12.0, 32);
     for (offset, label) in [(8.0f32, "outer"), (-8.0, "inner")] {
         let rr = 30.0 + offset;
-        let scope = rod((0..25).map(|i| { let p = 0.05 * PI + 0.9 * PI * i as f32 / 24.0; [rr * p.sin(), 30.0 - rr * p.cos(), 0.5] }).collect(), 5.0);
+        let scope = rod(
+            (0..25)
+                .map(|i| {
+                    let p = 0.05 * PI + 0.9 * PI * i as f32 / 24.0;
+                    [rr * p.sin(), 30.0 - rr * p.cos(), 0.5]
+                })
+                .collect(),
+            5.0,
+        );
         for m in [Method::Signed, Method::Thesis] {
             let cs = run(&interior(colon.clone(), scope.clone(), 4, m));
             let a = agree(&colon, &scope, 4, &cs, 0.05);
@@ -102,7 +110,13 @@ fn hard_kink_90_degrees() {
     let colon = tube(n, 24, centre, |i, k| {
         let a = k as f32 * TAU / 24.0;
         // Rings perpendicular to the local direction (the corner ring bisects the turn).
-        let t: [f32; 3] = if i < 10 { [1.0, 0.0, 0.0] } else if i > 10 { [0.0, 1.0, 0.0] } else { [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0] };
+        let t: [f32; 3] = if i < 10 {
+            [1.0, 0.0, 0.0]
+        } else if i > 10 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0]
+        };
         let u = [-t[1], t[0], 0.0];
         add(scale(u, 10.0 * a.cos()), scale([0.0, 0.0, 1.0], 10.0 * a.sin()))
     });
@@ -132,10 +146,15 @@ fn hard_rings_tilted_against_the_midline() {
     // midline's normal planes) slice it.
     let tilt = 30f32.to_radians();
     let e1 = [tilt.sin(), tilt.cos(), 0.0];
-    let colon = tube(16, 32, |i| [i as f32 * 4.0, 0.0, 0.0], |_, k| {
-        let a = k as f32 * TAU / 32.0;
-        add(scale(e1, 10.0 * a.cos()), scale([0.0, 0.0, 1.0], 10.0 * a.sin()))
-    });
+    let colon = tube(
+        16,
+        32,
+        |i| [i as f32 * 4.0, 0.0, 0.0],
+        |_, k| {
+            let a = k as f32 * TAU / 32.0;
+            add(scale(e1, 10.0 * a.cos()), scale([0.0, 0.0, 1.0], 10.0 * a.sin()))
+        },
+    );
     // Across x the section is an ellipse with half-axes 10 cos 30 = 8.66 (y) and 10 (z).
     for (y, z) in [(6.5, 0.0), (-4.0, 6.5), (0.0, 8.0), (7.0, -3.0), (9.5, 0.0)] {
         let scope = line([15.0, y, z], [45.0, y, z], 6, 3.0);
@@ -151,15 +170,34 @@ fn hard_rings_tilted_against_the_midline() {
 /// A gently curving tube whose radius ripples along it (haustral folds: `amp` deep every
 /// `period`) and around it, with a rod of radius 6.5 pressed into the folds.
 fn haustral(amp: f32, period: f32) -> (Tube, Rod) {
-    let colon = tube(120, 32, |i| { let s = i as f32 * 1.5; [s, 20.0 * (s / 60.0).sin(), 0.0] }, |i, k| {
-        let s = i as f32 * 1.5;
-        let a = k as f32 * TAU / 32.0;
-        let r = 22.0 + amp * (s * TAU / period).cos() + 1.5 * (3.0 * a).sin();
-        let t = { let d = [1.0, 20.0 / 60.0 * (s / 60.0).cos(), 0.0]; scale(d, 1.0 / norm(d)) };
-        let u = [-t[1], t[0], 0.0];
-        add(scale(u, r * a.cos()), scale([0.0, 0.0, 1.0], r * a.sin()))
-    });
-    let scope = rod((0..20).map(|j| { let s = 20.0 + j as f32 * 7.0; [s, 20.0 * (s / 60.0).sin() + 16.0, 1.0] }).collect(), 6.5);
+    let colon = tube(
+        120,
+        32,
+        |i| {
+            let s = i as f32 * 1.5;
+            [s, 20.0 * (s / 60.0).sin(), 0.0]
+        },
+        |i, k| {
+            let s = i as f32 * 1.5;
+            let a = k as f32 * TAU / 32.0;
+            let r = 22.0 + amp * (s * TAU / period).cos() + 1.5 * (3.0 * a).sin();
+            let t = {
+                let d = [1.0, 20.0 / 60.0 * (s / 60.0).cos(), 0.0];
+                scale(d, 1.0 / norm(d))
+            };
+            let u = [-t[1], t[0], 0.0];
+            add(scale(u, r * a.cos()), scale([0.0, 0.0, 1.0], r * a.sin()))
+        },
+    );
+    let scope = rod(
+        (0..20)
+            .map(|j| {
+                let s = 20.0 + j as f32 * 7.0;
+                [s, 20.0 * (s / 60.0).sin() + 16.0, 1.0]
+            })
+            .collect(),
+        6.5,
+    );
     (colon, scope)
 }
 
@@ -258,12 +296,25 @@ fn nearest_wall_points_on_folds() {
 /// A straight tube along +x (rings every 1 mm, radius 20) with one sharp ring fold: the radius
 /// falls to 9 over x = 40..43 and rises back over 43..46, its flanks at 75 degrees to the axis.
 fn ring_fold() -> Tube {
-    let radius = |x: f32| if x <= 40.0 || x >= 46.0 { 20.0 } else if x <= 43.0 { 20.0 - 11.0 * (x - 40.0) / 3.0 } else { 9.0 + 11.0 * (x - 43.0) / 3.0 };
-    tube(81, 32, |i| [i as f32, 0.0, 0.0], |i, k| {
-        let a = k as f32 * TAU / 32.0;
-        let r = radius(i as f32);
-        [0.0, r * a.cos(), r * a.sin()]
-    })
+    let radius = |x: f32| {
+        if x <= 40.0 || x >= 46.0 {
+            20.0
+        } else if x <= 43.0 {
+            20.0 - 11.0 * (x - 40.0) / 3.0
+        } else {
+            9.0 + 11.0 * (x - 43.0) / 3.0
+        }
+    };
+    tube(
+        81,
+        32,
+        |i| [i as f32, 0.0, 0.0],
+        |i, k| {
+            let a = k as f32 * TAU / 32.0;
+            let r = radius(i as f32);
+            [0.0, r * a.cos(), r * a.sin()]
+        },
+    )
 }
 
 #[test]

@@ -94,7 +94,10 @@ fn scene_strategy(valid: bool) -> impl Strategy<Value = (Tube, Rod)> {
 }
 
 fn rotate(p: [f32; 3], axis: [f32; 3], ang: f32) -> [f64; 3] {
-    let k = { let n = norm(axis); axis.map(|v| (v / n) as f64) };
+    let k = {
+        let n = norm(axis);
+        axis.map(|v| (v / n) as f64)
+    };
     let p = p.map(|v| v as f64);
     let (s, c) = (ang as f64).sin_cos();
     let kxp = [k[1] * p[2] - k[2] * p[1], k[2] * p[0] - k[0] * p[2], k[0] * p[1] - k[1] * p[0]];

@@ -225,8 +225,16 @@ pub fn time_per_frame(rows: &[FrameRow], title: &str) -> CliResult<String> {
             .build_cartesian_2d(frames_axis(rows), y)
             .map_err(pe)?;
         chart.configure_mesh().x_desc("frame").y_desc("us (log)").y_label_formatter(&us_label).draw().map_err(pe)?;
-        chart.draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.physics_us)), &PHYSICS)).map_err(pe)?.label("physics").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PHYSICS));
-        chart.draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.rtt_us)), &ROUND_TRIP)).map_err(pe)?.label("round trip to the daemon").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], ROUND_TRIP));
+        chart
+            .draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.physics_us)), &PHYSICS))
+            .map_err(pe)?
+            .label("physics")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PHYSICS));
+        chart
+            .draw_series(LineSeries::new(rows.iter().filter(|r| !r.nan).map(|r| (r.frame, r.rtt_us)), &ROUND_TRIP))
+            .map_err(pe)?
+            .label("round trip to the daemon")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], ROUND_TRIP));
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(pe)?;
         root.present().map_err(pe)?;
     }
@@ -273,8 +281,16 @@ pub fn time_vs_contacts(rows: &[FrameRow], title: &str) -> CliResult<String> {
             .map_err(pe)?;
         chart.configure_mesh().x_desc("contacts in the frame").y_desc("us (log)").x_label_formatter(&|v| format!("{v:.0}")).y_label_formatter(&us_label).draw().map_err(pe)?;
         let ok = || rows.iter().filter(|r| !r.nan);
-        chart.draw_series(ok().map(|r| Circle::new((r.contacts as f64, r.physics_us), 2, PHYSICS.filled()))).map_err(pe)?.label("physics").legend(|(x, y)| Circle::new((x + 8, y), 3, PHYSICS.filled()));
-        chart.draw_series(ok().map(|r| Circle::new((r.contacts as f64, r.rtt_us), 2, ROUND_TRIP.filled()))).map_err(pe)?.label("round trip to the daemon").legend(|(x, y)| Circle::new((x + 8, y), 3, ROUND_TRIP.filled()));
+        chart
+            .draw_series(ok().map(|r| Circle::new((r.contacts as f64, r.physics_us), 2, PHYSICS.filled())))
+            .map_err(pe)?
+            .label("physics")
+            .legend(|(x, y)| Circle::new((x + 8, y), 3, PHYSICS.filled()));
+        chart
+            .draw_series(ok().map(|r| Circle::new((r.contacts as f64, r.rtt_us), 2, ROUND_TRIP.filled())))
+            .map_err(pe)?
+            .label("round trip to the daemon")
+            .legend(|(x, y)| Circle::new((x + 8, y), 3, ROUND_TRIP.filled()));
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(pe)?;
         root.present().map_err(pe)?;
     }

@@ -83,7 +83,8 @@ then count x Contact (88 bytes): 0 u16 pair | 2 u8 kind | 3 u8 flags | 4 u16 bod
 32 f32[4] weights_b | 48 f32[3] point_a | 60 f32[3] point_b | 72 f32[3] normal | 84 f32 depth
 ";
 
-const SUMMARY_JSON_SCHEMA: &str = r#"{"title":"lumen.Summary","description":"Counts of a finished recording (decimal strings): frames, replies, contacts, missed_frames, missed_replies","type":"object"}"#;
+const SUMMARY_JSON_SCHEMA: &str =
+    r#"{"title":"lumen.Summary","description":"Counts of a finished recording (decimal strings): frames, replies, contacts, missed_frames, missed_replies","type":"object"}"#;
 const SPEC_JSON_SCHEMA: &str = r#"{"title":"lumen.SceneSpec","description":"The scene spec of proto/README.md section 1 (bodies, pairs, precision, alpha, margin)","type":"object"}"#;
 
 /// What went wrong with a recording; every variant names the file.
@@ -424,9 +425,7 @@ fn messages(path: &Path) -> Result<impl Iterator<Item = Result<mcap::Message<'st
             Ok(m)
         }
         Err(source @ mcap::McapError::BadMagic) if count == 0 => Err(RecordingError::NotMcap { path: path.clone(), source }),
-        Err(source @ (mcap::McapError::UnexpectedEof | mcap::McapError::Parse(_))) if count == 0 && is_short_or_not_mcap(&path) => {
-            Err(RecordingError::NotMcap { path: path.clone(), source })
-        }
+        Err(source @ (mcap::McapError::UnexpectedEof | mcap::McapError::Parse(_))) if count == 0 && is_short_or_not_mcap(&path) => Err(RecordingError::NotMcap { path: path.clone(), source }),
         Err(source) => Err(RecordingError::Truncated { path: path.clone(), messages: count, source }),
     }))
 }

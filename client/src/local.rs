@@ -14,11 +14,11 @@ use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
 use iceoryx2::sample_mut::SampleMut;
 use lumen_proto::session::{ControlReply, ControlRequest, SessionInfo, Transport};
+use lumen_proto::wire::{ContactsHeader, FrameHeader};
+use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::CONTROL;
 use lumen_transport::shm::{config, node, open_contacts, open_frame, service_name, ContactsService, Svc, EVENT_PEER_DIED, EVENT_SENT, LIVENESS_PERIOD};
 pub use lumen_transport::shm::{remove_prefix, shm_files};
-use lumen_proto::wire::{ContactsHeader, FrameHeader};
-use lumen_proto::{Contact, StateLayout};
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
@@ -45,12 +45,8 @@ impl Control {
         let service = self.node.service_builder(&name).request_response::<[u8], [u8]>().open().map_err(|e| no_daemon(format!("service {CONTROL}: {e:?}")))?;
         let wake = self.node.service_builder(&name).event().open().map_err(|e| no_daemon(format!("event {CONTROL}: {e:?}")))?;
         let json = serde_json::to_vec(request).expect("control requests serialise");
-        let client = service
-            .client_builder()
-            .initial_max_slice_len(json.len())
-            .allocation_strategy(AllocationStrategy::Static)
-            .create()
-            .map_err(|e| Error::iox("creating a control client port", e))?;
+        let client =
+            service.client_builder().initial_max_slice_len(json.len()).allocation_strategy(AllocationStrategy::Static).create().map_err(|e| Error::iox("creating a control client port", e))?;
         let loan = client.loan_slice_uninit(json.len()).map_err(|e| Error::iox("loaning a control request", e))?;
         let pending = loan.write_from_slice(&json).send().map_err(|e| Error::iox("sending a control request", e))?;
         let notifier = wake.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|e| Error::iox("creating a control notifier", e))?;

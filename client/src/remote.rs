@@ -5,10 +5,10 @@ use crate::control::{parse_reply, unexpected, CONTROL_WAIT};
 use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport};
-use lumen_transport::names::{client_alive_name, CONTROL, DAEMON_ALIVE};
-use lumen_transport::net::{config, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
+use lumen_transport::names::{client_alive_name, CONTROL, DAEMON_ALIVE};
+use lumen_transport::net::{config, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
 use std::time::{Duration, Instant};
 use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
@@ -94,12 +94,7 @@ impl Channels {
     fn declare(z: &zenoh::Session, info: &SessionInfo) -> Result<Self, Error> {
         let token = z.liveliness().declare_token(client_alive_name(info.session)).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
         let replies = z.declare_subscriber(info.contacts.clone()).with(RingChannel::new(CONTACTS_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
-        let publisher = z
-            .declare_publisher(info.frame.clone())
-            .congestion_control(CONGESTION)
-            .express(true)
-            .wait()
-            .map_err(|e| Error::zenoh("declaring the frame publisher", e))?;
+        let publisher = z.declare_publisher(info.frame.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| Error::zenoh("declaring the frame publisher", e))?;
         Ok(Self { publisher, replies, _token: token })
     }
 }

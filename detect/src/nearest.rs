@@ -95,13 +95,7 @@ fn local(t: &TubeView, cache: &mut TubeCache, at: Patch) -> Local {
     let (va, vb) = (a0 + (a1 - a0) * u, b0 + (b1 - b0) * u);
     let (da, db) = (a1 - a0, b1 - b0);
     let c = &cubic.c;
-    Local {
-        s: cubic.at(u) + va * (1.0 - l) + vb * l,
-        su: cubic.tangent(u) + da * (1.0 - l) + db * l,
-        sl: vb - va,
-        suu: c[2] * 2.0 + c[3] * (6.0 * u),
-        sul: db - da,
-    }
+    Local { s: cubic.at(u) + va * (1.0 - l) + vb * l, su: cubic.tangent(u) + da * (1.0 - l) + db * l, sl: vb - va, suu: c[2] * 2.0 + c[3] * (6.0 * u), sul: db - da }
 }
 
 impl Local {

@@ -174,25 +174,43 @@ struct Around {
 #[inline]
 fn between(d0: f32, d1: f32) -> f32 {
     let den = d0 - d1;
-    if den > 0.0 { (d0 / den).clamp(0.0, 1.0) } else { 0.0 }
+    if den > 0.0 {
+        (d0 / den).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Spoke `k + 1` of a ring of `b` spokes, for `k < b`: a compare, where `% b` would divide.
 #[inline]
 pub fn next(k: usize, b: usize) -> usize {
-    if k + 1 >= b { 0 } else { k + 1 }
+    if k + 1 >= b {
+        0
+    } else {
+        k + 1
+    }
 }
 
 /// Spoke `k - 1` of a ring of `b` spokes, for `k < b`.
 #[inline]
 pub fn prev(k: usize, b: usize) -> usize {
-    if k == 0 { b - 1 } else { k - 1 }
+    if k == 0 {
+        b - 1
+    } else {
+        k - 1
+    }
 }
 
 /// A unit vector perpendicular to unit `n`.
 #[inline]
 pub fn any_perpendicular(n: V3) -> V3 {
-    let a = if n.x.abs() < 0.577 { V3::x() } else if n.y.abs() < 0.577 { V3::y() } else { V3::z() };
+    let a = if n.x.abs() < 0.577 {
+        V3::x()
+    } else if n.y.abs() < 0.577 {
+        V3::y()
+    } else {
+        V3::z()
+    };
     n.cross(&a).normalize()
 }
 
@@ -407,7 +425,13 @@ impl TubeCache {
         loop {
             s1 = o * a.cross(&q).dot(&n);
             s2 = o * q.cross(&bb).dot(&n);
-            let step = if s1 < 0.0 { -1 } else if s2 < 0.0 { 1 } else { 0 };
+            let step = if s1 < 0.0 {
+                -1
+            } else if s2 < 0.0 {
+                1
+            } else {
+                0
+            };
             if step == 0 {
                 break;
             }

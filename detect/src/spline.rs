@@ -131,12 +131,7 @@ mod tests {
         // Thesis equation 10 (uniform): 0.5 * [1 t t^2 t^3] M [P0..P3].
         let c = Cubic::catmull_rom(Some(p[0]), p[1], p[2], Some(p[3]), 0.0);
         let t = 0.3f32;
-        let w = [
-            0.5 * (-t + 2. * t * t - t * t * t),
-            0.5 * (2. - 5. * t * t + 3. * t * t * t),
-            0.5 * (t + 4. * t * t - 3. * t * t * t),
-            0.5 * (-t * t + t * t * t),
-        ];
+        let w = [0.5 * (-t + 2. * t * t - t * t * t), 0.5 * (2. - 5. * t * t + 3. * t * t * t), 0.5 * (t + 4. * t * t - 3. * t * t * t), 0.5 * (-t * t + t * t * t)];
         let m = p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3];
         assert!((c.at(t) - m).norm() < 1e-5);
     }

@@ -18,7 +18,13 @@ fn a_sample_reported_outside_is_outside_every_section_that_brackets_it() {
     let centre = |i: usize| if i <= 10 { [i as f32 * 4.0, 0.0, 0.0] } else { [40.0, (i - 10) as f32 * 4.0, 0.0] };
     let colon = tube(21, 24, centre, |i, k| {
         let a = k as f32 * TAU / 24.0;
-        let t: [f32; 3] = if i < 10 { [1.0, 0.0, 0.0] } else if i > 10 { [0.0, 1.0, 0.0] } else { [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0] };
+        let t: [f32; 3] = if i < 10 {
+            [1.0, 0.0, 0.0]
+        } else if i > 10 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0]
+        };
         add(scale([-t[1], t[0], 0.0], 10.0 * a.cos()), scale([0.0, 0.0, 1.0], 10.0 * a.sin()))
     });
     let mut data = Vec::new();

@@ -24,7 +24,11 @@ fn polygon_sd(poly: &[[f32; 2]], p: [f32; 2]) -> f32 {
             inside = !inside;
         }
     }
-    if inside { -best } else { best }
+    if inside {
+        -best
+    } else {
+        best
+    }
 }
 
 /// Spokes of a straight tube along +x as (y, z) polygon.
@@ -83,11 +87,16 @@ fn hard_only_two_control_points() {
 fn hard_collapsed_section() {
     // Ring 5 of 11 pinched to 1e-6 of the radius: a rod through it touches everywhere near it
     // and nothing is NaN; right at the pinch the wall is at the midline, so depth = r + |offset|.
-    let colon = tube(11, 16, |i| [i as f32 * 5.0, 0.0, 0.0], |i, k| {
-        let r = if i == 5 { 1e-5 } else { 10.0 };
-        let a = k as f32 * TAU / 16.0;
-        [0.0, r * a.cos(), r * a.sin()]
-    });
+    let colon = tube(
+        11,
+        16,
+        |i| [i as f32 * 5.0, 0.0, 0.0],
+        |i, k| {
+            let r = if i == 5 { 1e-5 } else { 10.0 };
+            let a = k as f32 * TAU / 16.0;
+            [0.0, r * a.cos(), r * a.sin()]
+        },
+    );
     let scope = line([2.0, 0.5, 0.0], [48.0, 0.5, 0.0], 24, 2.0);
     let cs = run(&interior(colon, scope, 2, Method::Signed));
     assert_finite(&cs);
@@ -107,11 +116,16 @@ fn hard_zero_length_spoke() {
     // Spoke 0 (+y) has length 0 on every ring: the wall runs along the midline there, so a rod
     // at (y, z) = (2, 0) is outside the lumen, 2 from that wall line... the section is a
     // polygon through the origin; the 2D polygon distance is exact.
-    let colon = tube(6, 12, |i| [i as f32 * 5.0, 0.0, 0.0], |_, k| {
-        let r = if k == 0 { 0.0 } else { 10.0 };
-        let a = k as f32 * TAU / 12.0;
-        [0.0, r * a.cos(), r * a.sin()]
-    });
+    let colon = tube(
+        6,
+        12,
+        |i| [i as f32 * 5.0, 0.0, 0.0],
+        |_, k| {
+            let r = if k == 0 { 0.0 } else { 10.0 };
+            let a = k as f32 * TAU / 12.0;
+            [0.0, r * a.cos(), r * a.sin()]
+        },
+    );
     let poly = section(&colon, 0);
     for (y, z) in [(2.0, 0.0), (1.0, 3.0), (-3.0, 0.5), (0.0, -4.0)] {
         let scope = line([3.0, y, z], [22.0, y, z], 3, 1.5);
@@ -305,10 +319,15 @@ fn hard_non_star_section_is_flagged() {
     // Ring 4's spokes 3 and 4 swapped: the polygon folds. The model check names the ring, and
     // contacts computed there carry the flag instead of passing as clean geometry.
     let good = straight(10, 5.0, 10.0, 12);
-    let bad = tube(10, 12, |i| good.points[i], |i, k| {
-        let k = if i == 4 && (k == 3 || k == 4) { 7 - k } else { k };
-        good.spoke(i, k)
-    });
+    let bad = tube(
+        10,
+        12,
+        |i| good.points[i],
+        |i, k| {
+            let k = if i == 4 && (k == 3 || k == 4) { 7 - k } else { k };
+            good.spoke(i, k)
+        },
+    );
     assert_eq!(good.first_non_star(), None);
     assert_eq!(bad.first_non_star().map(|(ring, _)| ring), Some(4));
     let a = 3.5 * TAU / 12.0;
@@ -323,10 +342,15 @@ fn hard_translated_and_rotated_scene() {
     // 100 body lengths away (the tube is 50 long: 5,000 units) and rotated: the same contacts,
     // depths within 1% of the rod radius (only the inputs' rounding differs).
     let colon = arc(40, 60.0, PI / 2.0, 12.0, 32);
-    let scope = rod((0..12).map(|i| {
-        let p = 0.1 + 1.2 * i as f32 / 11.0 * 0.6;
-        [69.0 * p.sin(), 60.0 - 69.0 * p.cos(), 1.0]
-    }).collect(), 4.0);
+    let scope = rod(
+        (0..12)
+            .map(|i| {
+                let p = 0.1 + 1.2 * i as f32 / 11.0 * 0.6;
+                [69.0 * p.sin(), 60.0 - 69.0 * p.cos(), 1.0]
+            })
+            .collect(),
+        4.0,
+    );
     let base = interior(colon.clone(), scope.clone(), 4, Method::Signed);
     let want = run(&base);
     assert!(want.len() > 20);
@@ -339,7 +363,10 @@ fn hard_translated_and_rotated_scene() {
         let kp = k[0] * p64[0] + k[1] * p64[1] + k[2] * p64[2];
         [0, 1, 2].map(|i| p64[i] * c + kxp[i] * s + k[i] * kp * (1.0 - c))
     };
-    let moved_point = |p: [f32; 3]| { let r = rot(p); [0, 1, 2].map(|i| (r[i] + shift[i] as f64) as f32) };
+    let moved_point = |p: [f32; 3]| {
+        let r = rot(p);
+        [0, 1, 2].map(|i| (r[i] + shift[i] as f64) as f32)
+    };
     let moved_vec = |p: [f32; 3]| rot(p).map(|v| v as f32);
     let colon2 = Tube::new(colon.points.iter().map(|&p| moved_point(p)).collect(), colon.radial.iter().map(|&v| moved_vec(v)).collect(), colon.spokes).unwrap();
     let scope2 = rod(scope.points.iter().map(|&p| moved_point(p)).collect(), 4.0);
@@ -358,7 +385,15 @@ fn hard_translated_and_rotated_scene() {
 #[test]
 fn hard_uniform_scaling_mm_to_m() {
     let colon = arc(30, 80.0, PI / 2.0, 15.0, 16);
-    let scope = rod((0..10).map(|i| { let p = 0.2 + 1.1 * i as f32 / 9.0; [91.0 * p.sin(), 80.0 - 91.0 * p.cos(), 2.0] }).collect(), 5.0);
+    let scope = rod(
+        (0..10)
+            .map(|i| {
+                let p = 0.2 + 1.1 * i as f32 / 9.0;
+                [91.0 * p.sin(), 80.0 - 91.0 * p.cos(), 2.0]
+            })
+            .collect(),
+        5.0,
+    );
     let scaled = |s: f32| {
         let t = Tube::new(colon.points.iter().map(|p| p.map(|v| v * s)).collect(), colon.radial.iter().map(|p| p.map(|v| v * s)).collect(), 16).unwrap();
         let r = rod(scope.points.iter().map(|p| p.map(|v| v * s)).collect(), 5.0 * s);

@@ -1,7 +1,7 @@
 //! A tube model from a triangle surface and a midline, by ray casting.
 
-use crate::{Centerline, ImportError, Mesh};
 use crate::geom::{any_perpendicular, arc_lengths, at_arc, f3, rotation_minimising, smooth_along, tangents, V3d};
+use crate::{Centerline, ImportError, Mesh};
 use lumen_detect::Tube;
 use parry3d::math::Vector;
 use parry3d::query::{Ray, RayCast};
@@ -123,7 +123,11 @@ impl ImportReport {
 
     /// Repaired fraction of all rays.
     pub fn repaired_fraction(&self) -> f64 {
-        if self.rays == 0 { 0.0 } else { self.repaired() as f64 / self.rays as f64 }
+        if self.rays == 0 {
+            0.0
+        } else {
+            self.repaired() as f64 / self.rays as f64
+        }
     }
 }
 
@@ -173,7 +177,11 @@ fn median(v: &mut [f64]) -> f64 {
     }
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
@@ -322,7 +330,11 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
                     let j = j as usize;
                     (s_nominal[j] - s_nominal[i]).abs() > reach && (pts[j] - h).norm() < r
                 });
-                if foreign { Ray1::Neighbour } else { Ray1::Hit(t) }
+                if foreign {
+                    Ray1::Neighbour
+                } else {
+                    Ray1::Hit(t)
+                }
             };
         }
     }
@@ -400,7 +412,15 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
                     break;
                 }
             }
-            medians[i] = if found.is_nan() { if global.is_nan() { 1.0 } else { global } } else { found };
+            medians[i] = if found.is_nan() {
+                if global.is_nan() {
+                    1.0
+                } else {
+                    global
+                }
+            } else {
+                found
+            };
         }
     }
     // Repair and build.

@@ -17,10 +17,7 @@ pub struct Centerline {
 impl Centerline {
     /// Polyline length.
     pub fn length(&self) -> f64 {
-        self.points
-            .windows(2)
-            .map(|w| (0..3).map(|d| (w[1][d] as f64 - w[0][d] as f64).powi(2)).sum::<f64>().sqrt())
-            .sum()
+        self.points.windows(2).map(|w| (0..3).map(|d| (w[1][d] as f64 - w[0][d] as f64).powi(2)).sum::<f64>().sqrt()).sum()
     }
 }
 

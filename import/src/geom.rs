@@ -104,11 +104,7 @@ pub fn tangents(points: &[V3d], arc: &[f64], sigma: f64) -> Vec<V3d> {
             (points[b] - points[a]).try_normalize(1e-12).unwrap_or_else(V3d::x)
         })
         .collect();
-    smooth_along(&raw, arc, sigma)
-        .into_iter()
-        .zip(raw)
-        .map(|(t, r)| t.try_normalize(1e-9).unwrap_or(r))
-        .collect()
+    smooth_along(&raw, arc, sigma).into_iter().zip(raw).map(|(t, r)| t.try_normalize(1e-9).unwrap_or(r)).collect()
 }
 
 /// A unit vector perpendicular to unit `t`.
@@ -139,11 +135,7 @@ pub fn rotation_minimising(points: &[V3d], tangents: &[V3d], n0: V3d) -> Vec<V3d
         let (ti, tj) = (tangents[i], tangents[i + 1]);
         let v1 = points[i + 1] - points[i];
         let c1 = v1.dot(&v1);
-        let (rl, tl) = if c1 > 1e-18 {
-            (r - v1 * (2.0 / c1 * v1.dot(&r)), ti - v1 * (2.0 / c1 * v1.dot(&ti)))
-        } else {
-            (r, ti)
-        };
+        let (rl, tl) = if c1 > 1e-18 { (r - v1 * (2.0 / c1 * v1.dot(&r)), ti - v1 * (2.0 / c1 * v1.dot(&ti))) } else { (r, ti) };
         let v2 = tj - tl;
         let c2 = v2.dot(&v2);
         let mut rn = if c2 > 1e-18 { rl - v2 * (2.0 / c2 * v2.dot(&rl)) } else { rl };
@@ -161,10 +153,12 @@ mod tests {
     #[test]
     fn frame_on_a_helix_is_orthonormal_and_does_not_spin() {
         // Helix: the RMF's rotation about the tangent between samples is ~0.
-        let pts: Vec<V3d> = (0..400).map(|i| {
-            let a = i as f64 * 0.02;
-            V3d::new(30.0 * a.cos(), 30.0 * a.sin(), 5.0 * a)
-        }).collect();
+        let pts: Vec<V3d> = (0..400)
+            .map(|i| {
+                let a = i as f64 * 0.02;
+                V3d::new(30.0 * a.cos(), 30.0 * a.sin(), 5.0 * a)
+            })
+            .collect();
         let arc = arc_lengths(&pts);
         let t = tangents(&pts, &arc, 0.0);
         let n = rotation_minimising(&pts, &t, V3d::z());

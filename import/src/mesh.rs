@@ -98,7 +98,13 @@ pub fn parse_obj(text: &str) -> Result<Mesh, ImportError> {
                     let first = tok.split('/').next().unwrap_or("");
                     let i: i64 = first.parse().map_err(|_| perr(line, format!("bad vertex reference {tok:?}")))?;
                     let n = m.vertices.len() as i64;
-                    let abs = if i > 0 { i - 1 } else if i < 0 { n + i } else { -1 };
+                    let abs = if i > 0 {
+                        i - 1
+                    } else if i < 0 {
+                        n + i
+                    } else {
+                        -1
+                    };
                     if abs < 0 || abs >= n {
                         return Err(perr(line, format!("vertex {i} does not exist ({n} so far)")));
                     }

@@ -240,10 +240,12 @@ mod tests {
     fn straight(r: f32, b: usize) -> Tube {
         let pts: Vec<[f32; 3]> = (0..11).map(|i| [0.0, 0.0, i as f32 * 10.0]).collect();
         let radial = (0..11)
-            .flat_map(|_| (0..b).map(move |k| {
-                let a = k as f32 * std::f32::consts::TAU / b as f32;
-                [r * a.cos(), r * a.sin(), 0.0]
-            }))
+            .flat_map(|_| {
+                (0..b).map(move |k| {
+                    let a = k as f32 * std::f32::consts::TAU / b as f32;
+                    [r * a.cos(), r * a.sin(), 0.0]
+                })
+            })
             .collect();
         Tube::new(pts, radial, b).unwrap()
     }

@@ -75,11 +75,7 @@ impl StateLayout {
             if let Some(i) = data.iter().position(|v| !v.is_finite()) {
                 let (point, within) = (i / l.stride(), i % l.stride() / 3);
                 let (body, value) = (bodies[b].name.clone(), data[i]);
-                return Err(if within == 0 {
-                    InputError::NonFinitePoint { body, point, value }
-                } else {
-                    InputError::NonFiniteSpoke { body, ring: point, spoke: within - 1, value }
-                });
+                return Err(if within == 0 { InputError::NonFinitePoint { body, point, value } } else { InputError::NonFiniteSpoke { body, ring: point, spoke: within - 1, value } });
             }
         }
         unreachable!("a non-finite value was seen in the state")
@@ -120,13 +116,8 @@ mod tests {
 
     #[test]
     fn offsets_and_nan_location() {
-        let spec = SceneSpec::new(
-            vec![
-                BodySpec { name: "t".into(), shape: Shape::Tube { rings: 3, spokes: 4 } },
-                BodySpec { name: "r".into(), shape: Shape::Rod { points: 2, radius: vec![1.0] } },
-            ],
-            vec![],
-        );
+        let spec =
+            SceneSpec::new(vec![BodySpec { name: "t".into(), shape: Shape::Tube { rings: 3, spokes: 4 } }, BodySpec { name: "r".into(), shape: Shape::Rod { points: 2, radius: vec![1.0] } }], vec![]);
         let l = StateLayout::of(&spec);
         assert_eq!(l.bodies[1].offset, 3 * 5 * 3);
         assert_eq!(l.floats, 45 + 6);

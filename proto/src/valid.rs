@@ -77,10 +77,7 @@ mod tests {
     #[test]
     fn resolved_once() {
         let spec = SceneSpec::new(
-            vec![
-                BodySpec { name: "colon".into(), shape: Shape::Tube { rings: 10, spokes: 8 } },
-                BodySpec { name: "scope".into(), shape: Shape::Rod { points: 5, radius: vec![1.0] } },
-            ],
+            vec![BodySpec { name: "colon".into(), shape: Shape::Tube { rings: 10, spokes: 8 } }, BodySpec { name: "scope".into(), shape: Shape::Rod { points: 5, radius: vec![1.0] } }],
             vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }],
         );
         let v = spec.validate().unwrap();

@@ -538,10 +538,7 @@ mod tests {
 
     fn layout() -> StateLayout {
         StateLayout::of(&SceneSpec::new(
-            vec![
-                BodySpec { name: "t".into(), shape: Shape::Tube { rings: 2, spokes: 3 } },
-                BodySpec { name: "r".into(), shape: Shape::Rod { points: 2, radius: vec![1.0] } },
-            ],
+            vec![BodySpec { name: "t".into(), shape: Shape::Tube { rings: 2, spokes: 3 } }, BodySpec { name: "r".into(), shape: Shape::Rod { points: 2, radius: vec![1.0] } }],
             vec![],
         ))
     }

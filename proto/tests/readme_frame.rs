@@ -19,10 +19,7 @@ fn hand_written_frame_decodes() {
     let layout = StateLayout::of(&spec);
     let mut state = Vec::with_capacity(layout.floats);
     let header = decode_frame(&bytes, 7, &layout, &mut state).expect("the README's frame is valid");
-    assert_eq!(
-        header,
-        FrameHeader { magic: FRAME_MAGIC, version: PROTOCOL_VERSION, flags: 0, session: 7, frame: 3, client_time_ns: 1000, floats: 6, bodies: 1 }
-    );
+    assert_eq!(header, FrameHeader { magic: FRAME_MAGIC, version: PROTOCOL_VERSION, flags: 0, session: 7, frame: 3, client_time_ns: 1000, floats: 6, bodies: 1 });
     assert_eq!(state, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
     // The same header built in code gives the README's first 40 bytes.
     assert_eq!(FrameHeader::new(7, 3, 1000, 6, 1).to_bytes()[..], bytes[..FRAME_HEADER_BYTES]);

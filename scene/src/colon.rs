@@ -31,9 +31,9 @@
 //! `(n, b)` a rotation-minimising frame and `b = t x n` (`t` the unit tangent): counter-
 //! clockwise about the tangent.
 
-use lumen_import::geom::{any_perpendicular, arc_lengths, at_arc, locate_arc, rotation_minimising, V3d};
 use crate::rng::{hash_unit, Rng};
 use lumen_detect::Tube;
+use lumen_import::geom::{any_perpendicular, arc_lengths, at_arc, locate_arc, rotation_minimising, V3d};
 use std::f64::consts::{PI, TAU};
 
 /// Smallest accepted ratio of midline bend radius to local lumen radius.
@@ -68,16 +68,7 @@ pub struct ColonParams {
 
 impl Default for ColonParams {
     fn default() -> Self {
-        Self {
-            length_mm: 1500.0,
-            ring_spacing: 1.2,
-            spokes: 32,
-            radius_mm: [20.0, 35.0],
-            haustra_spacing_mm: 30.0,
-            haustra_depth_mm: 4.0,
-            jitter_mm: 10.0,
-            seed: 0,
-        }
+        Self { length_mm: 1500.0, ring_spacing: 1.2, spokes: 32, radius_mm: [20.0, 35.0], haustra_spacing_mm: 30.0, haustra_depth_mm: 4.0, jitter_mm: 10.0, seed: 0 }
     }
 }
 
@@ -102,16 +93,7 @@ pub enum Region {
 }
 
 impl Region {
-    pub const ALL: [Region; 8] = [
-        Region::Rectum,
-        Region::Sigmoid,
-        Region::Descending,
-        Region::SplenicFlexure,
-        Region::Transverse,
-        Region::HepaticFlexure,
-        Region::Ascending,
-        Region::Caecum,
-    ];
+    pub const ALL: [Region; 8] = [Region::Rectum, Region::Sigmoid, Region::Descending, Region::SplenicFlexure, Region::Transverse, Region::HepaticFlexure, Region::Ascending, Region::Caecum];
 
     /// Base lumen level in [0, 1] of the radius range.
     fn level(self) -> f64 {
@@ -140,53 +122,53 @@ impl Region {
 /// The template: waypoints of a 1.5 m adult colon (mm, patient frame) and the region that
 /// starts at each waypoint, if any.
 const TEMPLATE: [([f64; 3], Option<Region>); 47] = [
-    ([0.0, 0.0, 0.0], Some(Region::Rectum)), // 0
-    ([0.0, -15.0, 40.0], None), // 1
-    ([0.0, -35.0, 80.0], None), // 2
-    ([0.0, -40.0, 120.0], None), // 3
-    ([-5.0, -30.0, 160.0], Some(Region::Sigmoid)), // 4
-    ([-20.0, -10.0, 195.0], None), // 5
-    ([-45.0, 12.0, 218.0], None), // 6
-    ([-61.0, 42.0, 238.0], None), // 7
-    ([-61.0, 81.0, 248.0], None), // 8
-    ([-35.0, 112.0, 253.0], None), // 9
-    ([5.0, 119.0, 250.0], None), // 10
-    ([41.0, 99.0, 240.0], None), // 11
-    ([70.0, 70.0, 227.0], None), // 12
-    ([100.0, 40.0, 212.0], None), // 13
-    ([118.0, 10.0, 203.0], None), // 14
-    ([131.0, -20.0, 207.0], None), // 15
-    ([138.0, -45.0, 225.0], None), // 16
-    ([140.0, -60.0, 258.0], Some(Region::Descending)), // 17
-    ([139.0, -62.0, 298.0], None), // 18
-    ([135.0, -55.0, 340.0], None), // 19
-    ([128.0, -44.0, 385.0], None), // 20
+    ([0.0, 0.0, 0.0], Some(Region::Rectum)),               // 0
+    ([0.0, -15.0, 40.0], None),                            // 1
+    ([0.0, -35.0, 80.0], None),                            // 2
+    ([0.0, -40.0, 120.0], None),                           // 3
+    ([-5.0, -30.0, 160.0], Some(Region::Sigmoid)),         // 4
+    ([-20.0, -10.0, 195.0], None),                         // 5
+    ([-45.0, 12.0, 218.0], None),                          // 6
+    ([-61.0, 42.0, 238.0], None),                          // 7
+    ([-61.0, 81.0, 248.0], None),                          // 8
+    ([-35.0, 112.0, 253.0], None),                         // 9
+    ([5.0, 119.0, 250.0], None),                           // 10
+    ([41.0, 99.0, 240.0], None),                           // 11
+    ([70.0, 70.0, 227.0], None),                           // 12
+    ([100.0, 40.0, 212.0], None),                          // 13
+    ([118.0, 10.0, 203.0], None),                          // 14
+    ([131.0, -20.0, 207.0], None),                         // 15
+    ([138.0, -45.0, 225.0], None),                         // 16
+    ([140.0, -60.0, 258.0], Some(Region::Descending)),     // 17
+    ([139.0, -62.0, 298.0], None),                         // 18
+    ([135.0, -55.0, 340.0], None),                         // 19
+    ([128.0, -44.0, 385.0], None),                         // 20
     ([122.0, -36.0, 420.0], Some(Region::SplenicFlexure)), // 21
-    ([114.0, -14.0, 447.0], None), // 22
-    ([104.0, 16.0, 457.0], None), // 23
-    ([93.0, 46.0, 450.0], None), // 24
-    ([82.0, 68.0, 428.0], None), // 25
-    ([72.0, 78.0, 400.0], Some(Region::Transverse)), // 26
-    ([60.0, 90.0, 372.0], None), // 27
-    ([42.0, 101.0, 354.0], None), // 28
-    ([20.0, 106.0, 344.0], None), // 29
-    ([-5.0, 108.0, 340.0], None), // 30
-    ([-30.0, 106.0, 344.0], None), // 31
-    ([-52.0, 101.0, 354.0], None), // 32
-    ([-70.0, 92.0, 372.0], None), // 33
-    ([-82.0, 88.0, 400.0], Some(Region::HepaticFlexure)), // 34
-    ([-95.0, 81.0, 433.0], None), // 35
-    ([-108.0, 56.0, 458.0], None), // 36
-    ([-118.0, 23.0, 467.0], None), // 37
-    ([-127.0, -10.0, 458.0], None), // 38
-    ([-133.0, -35.0, 433.0], None), // 39
-    ([-137.0, -44.0, 400.0], Some(Region::Ascending)), // 40
-    ([-138.0, -50.0, 360.0], None), // 41
-    ([-135.0, -50.0, 318.0], None), // 42
-    ([-130.0, -44.0, 278.0], None), // 43
-    ([-124.0, -34.0, 240.0], Some(Region::Caecum)), // 44
-    ([-121.0, -21.0, 212.0], None), // 45
-    ([-119.0, -8.0, 188.0], None), // 46
+    ([114.0, -14.0, 447.0], None),                         // 22
+    ([104.0, 16.0, 457.0], None),                          // 23
+    ([93.0, 46.0, 450.0], None),                           // 24
+    ([82.0, 68.0, 428.0], None),                           // 25
+    ([72.0, 78.0, 400.0], Some(Region::Transverse)),       // 26
+    ([60.0, 90.0, 372.0], None),                           // 27
+    ([42.0, 101.0, 354.0], None),                          // 28
+    ([20.0, 106.0, 344.0], None),                          // 29
+    ([-5.0, 108.0, 340.0], None),                          // 30
+    ([-30.0, 106.0, 344.0], None),                         // 31
+    ([-52.0, 101.0, 354.0], None),                         // 32
+    ([-70.0, 92.0, 372.0], None),                          // 33
+    ([-82.0, 88.0, 400.0], Some(Region::HepaticFlexure)),  // 34
+    ([-95.0, 81.0, 433.0], None),                          // 35
+    ([-108.0, 56.0, 458.0], None),                         // 36
+    ([-118.0, 23.0, 467.0], None),                         // 37
+    ([-127.0, -10.0, 458.0], None),                        // 38
+    ([-133.0, -35.0, 433.0], None),                        // 39
+    ([-137.0, -44.0, 400.0], Some(Region::Ascending)),     // 40
+    ([-138.0, -50.0, 360.0], None),                        // 41
+    ([-135.0, -50.0, 318.0], None),                        // 42
+    ([-130.0, -44.0, 278.0], None),                        // 43
+    ([-124.0, -34.0, 240.0], Some(Region::Caecum)),        // 44
+    ([-121.0, -21.0, 212.0], None),                        // 45
+    ([-119.0, -8.0, 188.0], None),                         // 46
 ];
 
 /// Reference midline length of the template's scale, mm.
@@ -400,11 +382,7 @@ fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
     let k = length / d.arc[d.arc.len() - 1];
     let pos = d.pos.iter().map(|p| p * k).collect();
     let arc = d.arc.iter().map(|a| a * k).collect();
-    let regions = TEMPLATE
-        .iter()
-        .zip(&d.way_arc)
-        .filter_map(|((_, r), &a)| r.map(|r| (a * k, r)))
-        .collect();
+    let regions = TEMPLATE.iter().zip(&d.way_arc).filter_map(|((_, r), &a)| r.map(|r| (a * k, r))).collect();
     Candidate { pos, tan: d.tan, arc, regions }
 }
 
@@ -544,16 +522,7 @@ mod tests {
             let c = candidate(length, 0.0, None);
             let shrink = (length / REFERENCE_MM).min(1.0);
             let span = 15.0 * shrink;
-            let rm = RadiusModel {
-                lo: 20.0 * shrink,
-                span,
-                fold: (4.0 * shrink).min(0.3 * span),
-                sector: 0.1 * span,
-                regions: c.regions.clone(),
-                haustra_spacing: 30.0,
-                seed: 0,
-                taenia_phase: 0.0,
-            };
+            let rm = RadiusModel { lo: 20.0 * shrink, span, fold: (4.0 * shrink).min(0.3 * span), sector: 0.1 * span, regions: c.regions.clone(), haustra_spacing: 30.0, seed: 0, taenia_phase: 0.0 };
             let (ratio, gap) = check(&c, &rm, 2.0 * shrink);
             eprintln!("template at {length} mm: bend ratio {ratio:.2}, wall gap {gap:.1} mm");
             assert!(ratio >= MIN_BEND_RATIO, "bend ratio {ratio}");

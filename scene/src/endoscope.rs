@@ -38,10 +38,10 @@
 //! control-point spacings along the arc and 80 degrees around the push keeps its rest shape, and
 //! the segments touching them do not deform it), so they stay outside in the frame's colon.
 
-use lumen_import::geom::{at_arc, at_arc_scalar, d3, f3, smooth_along, smooth_scalar, V3d};
-use lumen_import::probe::Lumen;
 use crate::rng::Rng;
 use lumen_detect::{Rod, Tube};
+use lumen_import::geom::{at_arc, at_arc_scalar, d3, f3, smooth_along, smooth_scalar, V3d};
+use lumen_import::probe::Lumen;
 use std::f64::consts::PI;
 
 /// The scope and how it presses on the wall. Lengths in the colon's unit (mm).
@@ -140,7 +140,11 @@ impl Track {
             .map(|i| {
                 let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
                 let ds = arc[b] - arc[a];
-                if ds > 0.0 { (normal[b] - normal[a]) / ds } else { V3d::zeros() }
+                if ds > 0.0 {
+                    (normal[b] - normal[a]) / ds
+                } else {
+                    V3d::zeros()
+                }
             })
             .collect();
         let kappa = smooth_along(&kappa, &arc, KAPPA_SMOOTHING_MM);
@@ -478,17 +482,7 @@ impl Insertion {
                 f += len + rng.int(40, 120) as usize;
             }
         }
-        Frames {
-            insertion: self.clone(),
-            track,
-            n_frames,
-            next: 0,
-            start: start_depth_mm as f64,
-            step: mm_per_frame as f64,
-            phase,
-            events,
-            s_star: None,
-        }
+        Frames { insertion: self.clone(), track, n_frames, next: 0, start: start_depth_mm as f64, step: mm_per_frame as f64, phase, events, s_star: None }
     }
 }
 

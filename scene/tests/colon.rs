@@ -1,14 +1,11 @@
 //! The generated colon: size, radii, regions, no wall overlap, determinism.
 
 use lumen_detect::Tube;
-use lumen_scene::colon::{generate, generate_detailed, ColonParams, Region};
 use lumen_import::probe::clearance;
+use lumen_scene::colon::{generate, generate_detailed, ColonParams, Region};
 
 fn midline_length(t: &Tube) -> f64 {
-    t.points
-        .windows(2)
-        .map(|w| (0..3).map(|d| (w[1][d] as f64 - w[0][d] as f64).powi(2)).sum::<f64>().sqrt())
-        .sum()
+    t.points.windows(2).map(|w| (0..3).map(|d| (w[1][d] as f64 - w[0][d] as f64).powi(2)).sum::<f64>().sqrt()).sum()
 }
 
 fn norm(v: [f32; 3]) -> f32 {

@@ -1,9 +1,9 @@
 //! The kinematic insertion: inside the lumen except recorded escapes, ~1 mm per frame, local
 //! wall deformation, determinism.
 
+use lumen_import::probe::Lumen;
 use lumen_scene::colon::{generate, ColonParams};
 use lumen_scene::endoscope::{colonoscopy_scene, Frame, Insertion};
-use lumen_import::probe::Lumen;
 
 fn dist(a: [f32; 3], b: [f32; 3]) -> f64 {
     (0..3).map(|d| (a[d] as f64 - b[d] as f64).powi(2)).sum::<f64>().sqrt()
@@ -102,7 +102,10 @@ fn scope_stays_in_the_lumen_except_recorded_escapes() {
         assert_eq!(moved, f.deformed_tips);
         assert!(moved > 0 && moved < rest.radial.len() / 10, "frame {fi}: {moved} tips moved");
     }
-    eprintln!("{escape_frames} frames with escapes ({escapes} escaped samples, {:.2}-{:.2} mm out); at least {contacts_min} pressing samples per frame, deepest {deepest_press:.2} mm", worst_escape.0, worst_escape.1);
+    eprintln!(
+        "{escape_frames} frames with escapes ({escapes} escaped samples, {:.2}-{:.2} mm out); at least {contacts_min} pressing samples per frame, deepest {deepest_press:.2} mm",
+        worst_escape.0, worst_escape.1
+    );
     assert!(escape_frames >= 8, "only {escape_frames} frames with escapes");
     assert!(worst_escape.1 > 2.0, "escapes reach only {:.2} mm outside", worst_escape.1);
     assert!(contacts_min >= 5, "a frame with only {contacts_min} samples pressing on the wall");

@@ -1,9 +1,9 @@
 //! The real colon (Edinburgh Gut Cell Atlas EdinGCA_3D_00090, CC BY 4.0,
 //! doi:10.1186/s12911-023-02111-9), when its files are at ../shared/data/colon-gca00090.
 
-use lumen_scene::endoscope::{Frame, Insertion};
-use lumen_import::*;
 use lumen_import::probe::Lumen;
+use lumen_import::*;
+use lumen_scene::endoscope::{Frame, Insertion};
 use std::time::Instant;
 
 fn gca() -> Option<(Mesh, Centerline)> {

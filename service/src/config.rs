@@ -129,7 +129,9 @@ impl ServeConfig {
         }
         let tls_endpoint = self.zenoh.listen.iter().any(|e| e.starts_with("tls/"));
         match &self.zenoh.tls {
-            None if tls_endpoint => return Err(ConfigError::Invalid("a tls/ endpoint needs the daemon's certificate and key ([zenoh] tls = { certificate, private_key }, or --zenoh-tls-cert and --zenoh-tls-key)".into())),
+            None if tls_endpoint => {
+                return Err(ConfigError::Invalid("a tls/ endpoint needs the daemon's certificate and key ([zenoh] tls = { certificate, private_key }, or --zenoh-tls-cert and --zenoh-tls-key)".into()))
+            }
             Some(t) => {
                 for (what, p) in [("certificate", &t.certificate), ("private key", &t.private_key)] {
                     if !p.is_file() {

@@ -1,12 +1,12 @@
 //! Control requests, the same on both transports: validate, size, register, describe, report.
 
-use crate::registry::{Entry, Registry};
 use crate::error::DaemonError;
-use lumen_transport::names::{client_alive_name, contacts_name, frame_name};
-use lumen_transport::shm::ChannelQos;
+use crate::registry::{Entry, Registry};
 use lumen_proto::session::{ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
 use lumen_proto::SceneSpec;
+use lumen_transport::names::{client_alive_name, contacts_name, frame_name};
+use lumen_transport::shm::ChannelQos;
 use std::sync::Arc;
 
 /// A session accepted by [`open`], to be started by its transport.
@@ -22,12 +22,7 @@ fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
 /// Most contacts a spec can produce in one frame: one per sample of each pair's rod.
 pub fn contact_bound(spec: &SceneSpec) -> usize {
     let x = spec.precision as usize;
-    spec.pairs
-        .iter()
-        .filter_map(|p| spec.body_index(&p.a))
-        .map(|a| (spec.bodies[a].points().saturating_sub(1)) * x + 1)
-        .sum::<usize>()
-        .max(1)
+    spec.pairs.iter().filter_map(|p| spec.body_index(&p.a)).map(|a| (spec.bodies[a].points().saturating_sub(1)) * x + 1).sum::<usize>().max(1)
 }
 
 /// Bytes of shared memory an iceoryx2 session pins: the client's frame segment and the
@@ -87,7 +82,12 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
     if bytes > allowed {
         return error(
             ErrorCode::Limit,
-            format!("this scene needs {:.1} MiB per session ({} floats per frame); the daemon allows {} MiB (limits.max_session_mib): use fewer rings or spokes, or raise the limit", bytes as f64 / 1048576.0, layout.floats, limits.max_session_mib),
+            format!(
+                "this scene needs {:.1} MiB per session ({} floats per frame); the daemon allows {} MiB (limits.max_session_mib): use fewer rings or spokes, or raise the limit",
+                bytes as f64 / 1048576.0,
+                layout.floats,
+                limits.max_session_mib
+            ),
         );
     }
     if !registry.has_room() {
@@ -126,10 +126,7 @@ mod tests {
 
     fn spec(rings: usize) -> SceneSpec {
         SceneSpec::new(
-            vec![
-                BodySpec { name: "colon".into(), shape: Shape::Tube { rings, spokes: 32 } },
-                BodySpec { name: "scope".into(), shape: Shape::Rod { points: 160, radius: vec![6.5] } },
-            ],
+            vec![BodySpec { name: "colon".into(), shape: Shape::Tube { rings, spokes: 32 } }, BodySpec { name: "scope".into(), shape: Shape::Rod { points: 160, radius: vec![6.5] } }],
             vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }],
         )
     }

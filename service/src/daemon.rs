@@ -8,7 +8,6 @@ use crate::remote::Remote;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-
 /// A configured daemon, not yet running.
 pub struct Daemon {
     config: ServeConfig,

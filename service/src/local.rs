@@ -3,17 +3,17 @@
 //! frame in place from shared memory, detects, and writes the reply into a loaned sample.
 
 use crate::control::{self, Plan};
-use crate::error::DaemonError;
 use crate::engine::Engine;
+use crate::error::DaemonError;
 use crate::registry::Registry;
 use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
 use lumen_proto::session::{ControlReply, Transport};
+use lumen_proto::wire::{ContactsHeader, FrameHeader};
+use lumen_proto::Contact;
 use lumen_transport::names::CONTROL;
 use lumen_transport::shm::{config, create_channel, node, service_name, ChannelQos, ContactsService, EventService, FrameService, Svc, EVENT_PEER_DIED, EVENT_SENT};
 use lumen_transport::TransportError;
-use lumen_proto::wire::{ContactsHeader, FrameHeader};
-use lumen_proto::Contact;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -63,19 +63,9 @@ impl Local {
             tracing::info!("removed the shared memory of {} dead processes", cleaned.cleanups);
         }
         let name = service_name(CONTROL)?;
-        let service = node
-            .service_builder(&name)
-            .request_response::<[u8], [u8]>()
-            .max_clients(256)
-            .max_active_requests_per_client(1)
-            .open_or_create()
-            .map_err(|e| iox("creating the control service", e))?;
-        let server = service
-            .server_builder()
-            .initial_max_slice_len(64 * 1024)
-            .allocation_strategy(AllocationStrategy::PowerOfTwo)
-            .create()
-            .map_err(|e| iox("creating the control server", e))?;
+        let service =
+            node.service_builder(&name).request_response::<[u8], [u8]>().max_clients(256).max_active_requests_per_client(1).open_or_create().map_err(|e| iox("creating the control service", e))?;
+        let server = service.server_builder().initial_max_slice_len(64 * 1024).allocation_strategy(AllocationStrategy::PowerOfTwo).create().map_err(|e| iox("creating the control server", e))?;
         let wake = node.service_builder(&name).event().max_notifiers(256).open_or_create().map_err(|e| iox("creating the control event", e))?;
         let listener = wake.listener_builder().create().map_err(|e| iox("creating the control listener", e))?;
         let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;

@@ -2,9 +2,9 @@
 
 use crate::config::Limits;
 use crate::error::DaemonError;
-use lumen_proto::ValidScene;
 use crate::stats::Stats;
 use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
+use lumen_proto::ValidScene;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};

@@ -4,14 +4,14 @@
 
 use crate::control::{self, Plan};
 use crate::engine::Engine;
-use crate::registry::Registry;
 use crate::error::DaemonError;
+use crate::registry::Registry;
 use lumen_proto::session::{ControlReply, Transport};
+use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
+use lumen_proto::StateLayout;
 use lumen_transport::names::{CONTROL, DAEMON_ALIVE};
 use lumen_transport::net::{config, set, CONGESTION, FRAME_QUEUE};
 use lumen_transport::TransportError;
-use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
-use lumen_proto::StateLayout;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -103,12 +103,7 @@ fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Resu
 fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> {
     let info = plan.entry.info.clone();
     let frames = z.declare_subscriber(info.frame.clone()).with(RingChannel::new(FRAME_QUEUE)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
-    let publisher = z
-        .declare_publisher(info.contacts.clone())
-        .congestion_control(CONGESTION)
-        .express(true)
-        .wait()
-        .map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
+    let publisher = z.declare_publisher(info.contacts.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
     let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout.floats);

@@ -93,4 +93,3 @@ impl Default for SimConfig {
         Self { rod: RodParams::default(), wall: WallParams::default(), sim: SimParams::default(), script: Script::colonoscopy(), start_depth_mm: None }
     }
 }
-

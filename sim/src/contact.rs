@@ -45,8 +45,8 @@
 //! explicitly).
 
 use crate::rod::Rod;
-use lumen_detect::V3d;
 use crate::wall::Wall;
+use lumen_detect::V3d;
 use lumen_proto::{Contact, ContactKind};
 
 /// Most interior contacts of one rod sample: its nearest wall and up to three others
@@ -111,8 +111,7 @@ fn v3(a: [f32; 3]) -> V3d {
 /// Whether a contact is one this simulation answers: the scope (`rod_body`) against the colon
 /// (`tube_body`) from inside, or against itself.
 fn usable(c: &Contact, rod_body: u16, tube_body: u16) -> bool {
-    c.body_a == rod_body
-        && ((c.kind == ContactKind::Interior as u8 && c.body_b == tube_body) || (c.kind == ContactKind::SelfContact as u8 && c.body_b == rod_body))
+    c.body_a == rod_body && ((c.kind == ContactKind::Interior as u8 && c.body_b == tube_body) || (c.kind == ContactKind::SelfContact as u8 && c.body_b == rod_body))
 }
 
 fn interior(c: &Contact, wall: &Wall) -> bool {

@@ -52,10 +52,10 @@ pub mod setup;
 pub mod wall;
 pub mod world;
 
+pub use config::{SimConfig, SimParams};
+pub use lumen_detect::V3d;
 pub use lumen_proto::Contact;
 pub use operator::{Action, Operator, Phase, Script};
-pub use lumen_detect::V3d;
 pub use rod::{Rod, RodParams};
 pub use wall::{Wall, WallParams};
-pub use config::{SimConfig, SimParams};
 pub use world::{ContactSource, FnSource, FrameReport, InProcess, SimError, SourceError, World};

@@ -32,7 +32,6 @@
 //! `x <- x + v h`, constraints, `v <- (x - x_prev) / h`. Everything is deterministic: plain
 //! loops in a fixed order, no randomness.
 
-
 // The physics runs in `f64` (`lumen_detect::V3d`): gravity's step `g h^2` is far below `f32`'s
 // resolution at colon coordinates.
 use lumen_detect::V3d;
@@ -62,15 +61,7 @@ pub struct RodParams {
 
 impl Default for RodParams {
     fn default() -> Self {
-        Self {
-            length_mm: 1600.0,
-            points: 160,
-            radius_mm: 6.5,
-            mass_per_m_kg: 0.2,
-            flexural_rigidity_nm2: 0.15,
-            stretch_compliance: 0.0,
-            damping_per_s: 10.0,
-        }
+        Self { length_mm: 1600.0, points: 160, radius_mm: 6.5, mass_per_m_kg: 0.2, flexural_rigidity_nm2: 0.15, stretch_compliance: 0.0, damping_per_s: 10.0 }
     }
 }
 

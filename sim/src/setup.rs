@@ -12,14 +12,14 @@
 //! - [`sigmoid_bend_mm`]: where the hard push happens: the sharpest bend of the midline in the
 //!   sigmoid's stretch of the colon.
 
-use crate::rod::RodParams;
-use lumen_detect::V3d;
 use crate::config::SimParams;
+use crate::rod::RodParams;
 use lumen_detect::Tube;
+use lumen_detect::V3d;
+use lumen_import::probe::Lumen;
 use lumen_proto::{BodySpec, ContactKind, PairSpec, SceneSpec, Shape};
 use lumen_scene::colon::{generate, ColonParams};
 use lumen_scene::endoscope::Insertion;
-use lumen_import::probe::Lumen;
 use lumen_scene::gca::{self, GcaError};
 use lumen_scene::ColonKind;
 use std::path::Path;

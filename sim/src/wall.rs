@@ -41,8 +41,8 @@
 //! (a block: the tips whose nearest node is the same) and rewrites to rest the blocks that were
 //! around them last frame.
 
-use lumen_detect::V3d;
 use lumen_detect::Tube;
+use lumen_detect::V3d;
 
 /// Slot value: the node is inactive (at rest).
 const INACTIVE: u32 = u32::MAX;
@@ -82,16 +82,7 @@ pub struct WallParams {
 
 impl Default for WallParams {
     fn default() -> Self {
-        Self {
-            node_spacing_mm: 12.0,
-            stiffness_kpa_per_mm: 2.0,
-            membrane_ratio: 2.0,
-            areal_mass_kg_m2: 5.0,
-            damping_per_s: 4000.0,
-            max_out_mm: 15.0,
-            spread_mm: 0.02,
-            rest_mm: 0.005,
-        }
+        Self { node_spacing_mm: 12.0, stiffness_kpa_per_mm: 2.0, membrane_ratio: 2.0, areal_mass_kg_m2: 5.0, damping_per_s: 4000.0, max_out_mm: 15.0, spread_mm: 0.02, rest_mm: 0.005 }
     }
 }
 
@@ -210,7 +201,11 @@ impl Wall {
             .iter()
             .map(|&v| {
                 let l = norm3(v);
-                if l > 0.0 { [(v[0] as f64 / l) as f32, (v[1] as f64 / l) as f32, (v[2] as f64 / l) as f32] } else { [0.0; 3] }
+                if l > 0.0 {
+                    [(v[0] as f64 / l) as f32, (v[1] as f64 / l) as f32, (v[2] as f64 / l) as f32]
+                } else {
+                    [0.0; 3]
+                }
             })
             .collect();
         Self {
@@ -354,12 +349,7 @@ impl Wall {
     fn neighbours(&self, node: u32) -> [u32; 4] {
         let c = self.cols as u32;
         let (r, k) = (node / c, node % c);
-        [
-            if r > 0 { node - c } else { NO_NEIGHBOUR },
-            if (r as usize) + 1 < self.rows { node + c } else { NO_NEIGHBOUR },
-            r * c + (k + c - 1) % c,
-            r * c + (k + 1) % c,
-        ]
+        [if r > 0 { node - c } else { NO_NEIGHBOUR }, if (r as usize) + 1 < self.rows { node + c } else { NO_NEIGHBOUR }, r * c + (k + c - 1) % c, r * c + (k + 1) % c]
     }
 
     /// Between the contacts' [`Wall::touch_tip`] and the frame's substeps: activates the
@@ -383,8 +373,7 @@ impl Wall {
         while s < self.active.len() {
             let t = self.active[s];
             let quiet = !t.touched && t.u.abs() < rest && (t.v * dt).abs() < rest;
-            let calm = quiet
-                && self.neighbours(t.node).iter().all(|&nb| nb == NO_NEIGHBOUR || self.slot[nb as usize] == INACTIVE || self.active[self.slot[nb as usize] as usize].u.abs() <= spread);
+            let calm = quiet && self.neighbours(t.node).iter().all(|&nb| nb == NO_NEIGHBOUR || self.slot[nb as usize] == INACTIVE || self.active[self.slot[nb as usize] as usize].u.abs() <= spread);
             if calm {
                 self.slot[t.node as usize] = INACTIVE;
                 self.active.swap_remove(s);
@@ -570,11 +559,7 @@ impl Wall {
             for i in i0..i1 {
                 let wr = self.ring_w[i as usize].1;
                 // Row-weighted node values: then one 3-term sum per tip.
-                let row = [
-                    wr[0] * nodes[0] + wr[1] * nodes[3] + wr[2] * nodes[6],
-                    wr[0] * nodes[1] + wr[1] * nodes[4] + wr[2] * nodes[7],
-                    wr[0] * nodes[2] + wr[1] * nodes[5] + wr[2] * nodes[8],
-                ];
+                let row = [wr[0] * nodes[0] + wr[1] * nodes[3] + wr[2] * nodes[6], wr[0] * nodes[1] + wr[1] * nodes[4] + wr[2] * nodes[7], wr[0] * nodes[2] + wr[1] * nodes[5] + wr[2] * nodes[8]];
                 for &k in &self.block_spokes[c] {
                     let tip = i * self.spokes as u32 + k;
                     let rest = self.rest[tip as usize];

@@ -42,13 +42,13 @@
 //! iceoryx2 loans hold stale data, so the whole state is written) and, in `detect`,
 //! submitting it and copying the reply's contacts.
 
+use crate::config::SimConfig;
 use crate::contact::ContactSet;
 use crate::operator::{Drive, Operator};
 use crate::rod::Rod;
-use lumen_detect::V3d;
-use crate::config::SimConfig;
 use crate::setup;
 use crate::wall::Wall;
+use lumen_detect::V3d;
 use lumen_detect::{Detector, Tube};
 use lumen_proto::contact::FLAG_OUTSIDE;
 use lumen_proto::{Contact, ContactKind, SceneSpec, SpecError, StateLayout, ValidScene};
@@ -286,9 +286,7 @@ impl<S: ContactSource> World<S> {
         let (axis_origin, axis_dir) = setup::insertion_axis(tube);
         let up = if axis_dir.y.abs() < 0.9 { V3d::y() } else { V3d::x() };
         let axis_ref = (up - axis_dir * up.dot(&axis_dir)).normalize();
-        let initial_bend = (0..points.len())
-            .map(|i| if i == 0 || i + 1 == points.len() { V3d::zeros() } else { points[i - 1] - points[i] * 2.0 + points[i + 1] })
-            .collect();
+        let initial_bend = (0..points.len()).map(|i| if i == 0 || i + 1 == points.len() { V3d::zeros() } else { points[i - 1] - points[i] * 2.0 + points[i + 1] }).collect();
         let rod = Rod::new(config.rod.clone(), points);
         let wall = Wall::new(tube, config.wall.clone());
         let operator = Operator::new(config.script.clone());

@@ -3,7 +3,7 @@
 
 use lumen_detect::Tube;
 use lumen_proto::Contact;
-use lumen_sim::{setup, Action, FnSource, InProcess, Phase, Rod, RodParams, Script, SimConfig, SourceError, World, V3d};
+use lumen_sim::{setup, Action, FnSource, InProcess, Phase, Rod, RodParams, Script, SimConfig, SourceError, V3d, World};
 use std::time::Instant;
 
 /// A straight tube along +x: `rings` rings 1.2 mm apart, 32 spokes of `radius` mm.

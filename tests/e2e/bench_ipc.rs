@@ -31,12 +31,14 @@ fn a_short_ipc_benchmark_writes_coherent_figures() {
     let wake = json["wake"].as_array().unwrap();
     let rows: Vec<(&str, &str)> = wake.iter().map(|w| (w["mode"].as_str().unwrap(), w["cores"].as_str().unwrap())).collect();
     let two = std::thread::available_parallelism().map_or(1, |n| n.get()) > 1;
-    let expect: Vec<(&str, &str)> = [("back-to-back", "two cores"), ("back-to-back", "one core"), ("paced-1khz", "two cores"), ("paced-1khz", "one core")].into_iter().filter(|r| two || r.1 == "one core").collect();
+    let expect: Vec<(&str, &str)> =
+        [("back-to-back", "two cores"), ("back-to-back", "one core"), ("paced-1khz", "two cores"), ("paced-1khz", "one core")].into_iter().filter(|r| two || r.1 == "one core").collect();
     assert_eq!(rows, expect);
     assert!(wake.iter().all(|w| w["round_trips"] == 60 && w["p50_us"].as_f64().unwrap() > 0.0), "{wake:?}");
     let md = std::fs::read_to_string(out.join("ipc.md")).unwrap();
     assert!(md.contains("| iceoryx2 | paced-1khz |"), "{md}");
     let _ = std::fs::remove_dir_all(&out);
-    let left: Vec<_> = std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("lumen_bench_")).collect()).unwrap_or_default();
+    let left: Vec<_> =
+        std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("lumen_bench_")).collect()).unwrap_or_default();
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }

@@ -45,16 +45,7 @@ fn import(d: &Path, mesh: &str, out: &str, extra: &[&str]) -> Output {
         csv += &format!("0,0,{}\n", 5.0 + 5.0 * k as f32);
     }
     std::fs::write(d.join("c.csv"), csv).unwrap();
-    Command::new(LUMEN)
-        .arg("import")
-        .arg(d.join(mesh))
-        .arg("--centerline")
-        .arg(d.join("c.csv"))
-        .args(["--spokes", "16", "--ring-spacing", "2", "-o"])
-        .arg(d.join(out))
-        .args(extra)
-        .output()
-        .unwrap()
+    Command::new(LUMEN).arg("import").arg(d.join(mesh)).arg("--centerline").arg(d.join("c.csv")).args(["--spokes", "16", "--ring-spacing", "2", "-o"]).arg(d.join(out)).args(extra).output().unwrap()
 }
 
 #[test]

@@ -287,13 +287,11 @@ fn tls_round_trip_with_the_daemons_ca_and_refusals_without_it() {
                 }
             }
         };
-        let answered = (0..5).find_map(|_| {
-            match once(&mut s) {
-                Ok(cs) => Some(cs),
-                Err(e) => {
-                    last = Some(e);
-                    None
-                }
+        let answered = (0..5).find_map(|_| match once(&mut s) {
+            Ok(cs) => Some(cs),
+            Err(e) => {
+                last = Some(e);
+                None
             }
         });
         let cs = answered.unwrap_or_else(|| panic!("frame {k}: no reply over TLS in 5 tries; last: {last:?}"));

@@ -3,11 +3,11 @@
 //! every frame, a tampered recording fails `--check`, Ctrl-C finishes the file, and damaged
 //! files are refused with a clear error.
 
+use lumen_cli::recording::{self, Missed, Recording, RecordingError, Writer};
 use lumen_client::{Client, LocalOptions};
 use lumen_e2e::{free_port, shm_files, unique_prefix, ChildProcess, Daemon, TestScene};
 use lumen_proto::wire::{self, ContactsHeader, FrameHeader};
 use lumen_proto::Contact;
-use lumen_cli::recording::{self, Missed, Recording, RecordingError, Writer};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;

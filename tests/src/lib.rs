@@ -33,9 +33,7 @@ pub fn free_port() -> u16 {
 
 /// Files in `/dev/shm` whose names start with `prefix`.
 pub fn shm_files(prefix: &str) -> Vec<String> {
-    std::fs::read_dir("/dev/shm")
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(prefix)).collect())
-        .unwrap_or_default()
+    std::fs::read_dir("/dev/shm").map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(prefix)).collect()).unwrap_or_default()
 }
 
 /// Waits until `f` holds, up to `limit`; returns whether it did.

@@ -426,10 +426,7 @@ impl Reference {
 
         // Normals (the builder guarantees a non-zero area).
         let corner = |t: &[u32; 3], j: usize| verts[t[j] as usize];
-        let tri_n: Vec<D3> = tris
-            .iter()
-            .map(|t| unit_or(cross(sub(corner(t, 1), corner(t, 0)), sub(corner(t, 2), corner(t, 0))), [0.0; 3]))
-            .collect();
+        let tri_n: Vec<D3> = tris.iter().map(|t| unit_or(cross(sub(corner(t, 1), corner(t, 0)), sub(corner(t, 2), corner(t, 0))), [0.0; 3])).collect();
 
         // Neighbours across edges: sort the edges by their vertex pair and pair equal keys.
         let mut edges: Vec<(u64, u32)> = Vec::with_capacity(tris.len() * 3);
@@ -580,12 +577,7 @@ impl Reference {
         let (point, sd, normal) = match self.solve(pl) {
             Some((h, inside)) => (h.point, if inside { -h.dist } else { h.dist }, self.feature_normal(&h, false)),
             None => {
-                let q = self
-                    .verts
-                    .iter()
-                    .copied()
-                    .min_by(|a, b| dot(sub(pl, *a), sub(pl, *a)).total_cmp(&dot(sub(pl, *b), sub(pl, *b))))
-                    .unwrap_or(pl);
+                let q = self.verts.iter().copied().min_by(|a, b| dot(sub(pl, *a), sub(pl, *a)).total_cmp(&dot(sub(pl, *b), sub(pl, *b)))).unwrap_or(pl);
                 let d = sub(pl, q);
                 (q, norm(d), unit_or(d, [1.0, 0.0, 0.0]))
             }

@@ -113,15 +113,9 @@ fn ends_are_open_but_capped_for_the_sign() {
     for ccw in [true, false] {
         let t = straight(6, ccw, [0.0; 3]);
         let r = Reference::new(&t, 0.5, 3);
-        for (p, inside) in [
-            ([25.0, 0.0, 0.0], true),
-            ([25.0, 9.8, 0.0], true),
-            ([25.0, 0.0, -10.1], false),
-            ([0.5, 0.0, 0.0], true),
-            ([49.5, 1.0, 1.0], true),
-            ([-0.5, 0.0, 0.0], false),
-            ([50.5, 1.0, 1.0], false),
-        ] {
+        for (p, inside) in
+            [([25.0, 0.0, 0.0], true), ([25.0, 9.8, 0.0], true), ([25.0, 0.0, -10.1], false), ([0.5, 0.0, 0.0], true), ([49.5, 1.0, 1.0], true), ([-0.5, 0.0, 0.0], false), ([50.5, 1.0, 1.0], false)]
+        {
             assert_eq!(r.inside(p), inside, "ccw {ccw} {p:?}");
             assert_eq!(r.query(p).sd < 0.0, inside, "ccw {ccw} {p:?}");
         }
@@ -251,10 +245,7 @@ fn quarter_torus_matches_the_analytic_torus() {
                 }
             }
         }
-        println!(
-            "ccw {ccw}: dev {dev:.5} (expected {expected:.5}), bound {:.5}, tol {tol:.5}, worst {worst:.5}",
-            r.bound()
-        );
+        println!("ccw {ccw}: dev {dev:.5} (expected {expected:.5}), bound {:.5}, tol {tol:.5}, worst {worst:.5}", r.bound());
         // The comparison is not vacuous: the sagitta alone is most of the tolerance.
         assert!(worst > 0.3 * tol, "worst {worst}, tol {tol}");
     }
@@ -302,8 +293,7 @@ fn degenerate_input_does_not_panic() {
             .collect()
     };
     let finite = |q: RefQuery| q.sd.is_finite() && q.point.iter().chain(&q.normal).all(|x| x.is_finite());
-    let probes =
-        [[10.0, 0.0, 0.0], [20.0, 0.5, 0.0], [25.0, 3.0, 0.0], [-5.0, 0.0, 0.0], [60.0, 9.0, 9.0], [20.0, 0.0, 0.0]];
+    let probes = [[10.0, 0.0, 0.0], [20.0, 0.5, 0.0], [25.0, 3.0, 0.0], [-5.0, 0.0, 0.0], [60.0, 9.0, 9.0], [20.0, 0.0, 0.0]];
 
     // Coincident control points (twice at each end).
     let pts = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [20.0, 0.0, 0.0], [20.0, 0.0, 0.0]];

@@ -12,15 +12,15 @@
 //! SIGINT / SIGTERM at any point are forwarded to the children, which are waited for; then
 //! whatever the prefix left in /dev/shm is removed, and the exit status is 130.
 
-use super::transport::TransportArg;
 use super::sim::RunArgs;
-use lumen_service::daemon::{block_termination_signals, wait_signal};
+use super::transport::TransportArg;
 use crate::commands::{CliError, CliResult};
 use crate::demo_report::{self, Summary};
 use crate::figures::{FrameRow, RunFigures, SimLine};
 use crate::procs::{Next, Proc};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lumen_service::daemon::{block_termination_signals, wait_signal};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};

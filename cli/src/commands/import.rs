@@ -44,13 +44,7 @@ pub struct ImportArgs {
 }
 
 pub fn run(a: ImportArgs) -> CliResult {
-    let params = ImportParams {
-        spokes: a.spokes,
-        ring_spacing: a.ring_spacing,
-        inflate: a.inflate,
-        tangent_smoothing_mm: a.tangent_smoothing,
-        point_smoothing_mm: a.point_smoothing,
-    };
+    let params = ImportParams { spokes: a.spokes, ring_spacing: a.ring_spacing, inflate: a.inflate, tangent_smoothing_mm: a.tangent_smoothing, point_smoothing_mm: a.point_smoothing };
     // Refused before the files are read, naming the flag: a wrong flag should not cost a mesh
     // load.
     if let Err(e) = params.validate() {

@@ -4,10 +4,10 @@
 
 use super::transport::TransportArgs;
 use super::CliResult;
-use lumen_service::daemon::{block_termination_signals, wait_signal};
 use crate::recording::{wall_ns, Missed, Writer};
 use clap::Args;
 use lumen_client::{Error, Observed};
+use lumen_service::daemon::{block_termination_signals, wait_signal};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

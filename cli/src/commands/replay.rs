@@ -5,9 +5,9 @@
 use super::transport::TransportArgs;
 use super::{CliError, CliResult};
 use crate::recording::{compare_replies, Recording, ReplyDifference};
-use lumen_service::stats::pick;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use lumen_service::stats::pick;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::str::FromStr;

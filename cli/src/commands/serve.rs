@@ -1,9 +1,9 @@
 //! `lumen serve`: configuration file, then flags, then run until SIGINT/SIGTERM.
 
 use super::CliResult;
+use clap::Args;
 use lumen_service::config::ServeConfig;
 use lumen_service::daemon::{block_termination_signals, Daemon};
-use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
 

@@ -11,11 +11,11 @@
 //! closed, and the exit status is 130.
 
 use super::transport::TransportArgs;
-use lumen_service::daemon::{block_termination_signals, wait_signal};
 use crate::commands::{CliError, CliResult};
 use crate::figures::{FrameRow, SimLine, Tally};
 use clap::Args;
 use lumen_scene::ColonKind;
+use lumen_service::daemon::{block_termination_signals, wait_signal};
 use lumen_sim::daemon::DaemonSource;
 use lumen_sim::{setup, SimConfig, SimError, World};
 use std::io::{BufWriter, Write};

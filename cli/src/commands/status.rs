@@ -1,7 +1,7 @@
 //! `lumen status`: the daemon's sessions as a table (or JSON).
 
-use super::CliResult;
 use super::transport::TransportArgs;
+use super::CliResult;
 use clap::Args;
 use lumen_client::StatusReport;
 

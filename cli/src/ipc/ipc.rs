@@ -7,11 +7,11 @@
 //! prefix and zenoh port; the clients are threads of this process.
 
 use super::quantile_us;
-use crate::error::{CliError, CliResult};
-use lumen_scene::frames as scene;
 use super::wake::{self, Wake};
+use crate::error::{CliError, CliResult};
 use lumen_client::{now_ns, Client, Error as ClientError, LocalOptions, Session, Transport};
 use lumen_proto::{SceneSpec, StateLayout};
+use lumen_scene::frames as scene;
 use serde::Serialize;
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -243,7 +243,7 @@ impl IpcBench {
         let wake = wake::floor(n).map_err(CliError::WakeFloor)?;
         bar.finish_and_clear();
         drop(_daemon); // SIGTERM: it releases its shared memory
-        // The private prefix's node counter (iceoryx2 never removes it) and anything left.
+                       // The private prefix's node counter (iceoryx2 never removes it) and anything left.
         lumen_transport::shm::remove_prefix(&self.prefix);
         Ok(IpcReport {
             scene: format!("{scene_name}, interior contacts, precision 4"),

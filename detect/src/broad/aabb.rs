@@ -11,10 +11,7 @@ pub struct Aabb {
 
 impl Aabb {
     /// The box holding nothing: the identity of [`Aabb::merge`].
-    pub const EMPTY: Aabb = Aabb {
-        min: V3::new(f32::INFINITY, f32::INFINITY, f32::INFINITY),
-        max: V3::new(f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY),
-    };
+    pub const EMPTY: Aabb = Aabb { min: V3::new(f32::INFINITY, f32::INFINITY, f32::INFINITY), max: V3::new(f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY) };
 
     /// The tightest box around `points`.
     #[inline]
@@ -54,12 +51,7 @@ impl Aabb {
 
     #[inline]
     pub fn overlaps(&self, o: &Aabb) -> bool {
-        self.min.x <= o.max.x
-            && o.min.x <= self.max.x
-            && self.min.y <= o.max.y
-            && o.min.y <= self.max.y
-            && self.min.z <= o.max.z
-            && o.min.z <= self.max.z
+        self.min.x <= o.max.x && o.min.x <= self.max.x && self.min.y <= o.max.y && o.min.y <= self.max.y && self.min.z <= o.max.z && o.min.z <= self.max.z
     }
 
     #[inline]

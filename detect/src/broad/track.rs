@@ -57,7 +57,15 @@ impl Walk {
     /// far from the midline, and takes a second look across folded planes where the reading
     /// puts it outside. Updates `track`. `None`: beyond the tube's ends, or lost.
     #[inline]
-    pub fn locate(&mut self, tube: &mut TubeFrame, p: &V3, r: f32, track: &mut Track, counters: &mut Counters, read: impl FnOnce(&mut TubeCache, &TubeView, usize, f32, Option<usize>) -> Reading) -> Option<Reading> {
+    pub fn locate(
+        &mut self,
+        tube: &mut TubeFrame,
+        p: &V3,
+        r: f32,
+        track: &mut Track,
+        counters: &mut Counters,
+        read: impl FnOnce(&mut TubeCache, &TubeView, usize, f32, Option<usize>) -> Reading,
+    ) -> Option<Reading> {
         let t = tube.view;
         let tr = *track;
         let guess = if tr.valid { Some((tr.seg as isize + self.shift).clamp(0, self.last) as usize) } else { self.neighbour };

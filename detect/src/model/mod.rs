@@ -82,13 +82,7 @@ impl Tube {
     pub fn validate(&self) -> Result<(), ModelError> {
         check_counts(self.points.len(), Some(self.spokes))?;
         if self.radial.len() != self.points.len() * self.spokes {
-            return Err(ModelError::Invalid(format!(
-                "{} radial vectors for {} rings of {}; expected {}",
-                self.radial.len(),
-                self.points.len(),
-                self.spokes,
-                self.points.len() * self.spokes
-            )));
+            return Err(ModelError::Invalid(format!("{} radial vectors for {} rings of {}; expected {}", self.radial.len(), self.points.len(), self.spokes, self.points.len() * self.spokes)));
         }
         if let Some(i) = self.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(ModelError::Invalid(format!("control point {i} is not finite: {:?}", self.points[i])));

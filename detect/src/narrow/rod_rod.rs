@@ -93,11 +93,7 @@ pub fn rod_rod(a: RodFrame, b: RodFrame, same: bool, best: &mut Vec<Best>, emit:
                 let d = v.norm();
                 let depth = ra + rb - d;
                 if depth > best[s].depth {
-                    let normal = if d > 0.0 {
-                        v / d
-                    } else {
-                        crate::section::any_perpendicular(w.try_normalize(0.0).unwrap_or(V3::x()))
-                    };
+                    let normal = if d > 0.0 { v / d } else { crate::section::any_perpendicular(w.try_normalize(0.0).unwrap_or(V3::x())) };
                     let (seg_b, base) = b.segment_of(m);
                     let u_b = base + l / b.x as f32;
                     // The polyline's last point belongs to the last segment at parameter 1.

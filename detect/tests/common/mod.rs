@@ -32,10 +32,15 @@ pub fn tube(rings: usize, spokes: usize, centre: impl Fn(usize) -> V, spoke: imp
 /// Straight circular tube along +x from x = 0, rings every `spacing`, spokes counter-clockwise
 /// about +x starting at +y.
 pub fn straight(rings: usize, spacing: f32, radius: f32, spokes: usize) -> Tube {
-    tube(rings, spokes, |i| [i as f32 * spacing, 0.0, 0.0], |_, k| {
-        let a = k as f32 * TAU / spokes as f32;
-        [0.0, radius * a.cos(), radius * a.sin()]
-    })
+    tube(
+        rings,
+        spokes,
+        |i| [i as f32 * spacing, 0.0, 0.0],
+        |_, k| {
+            let a = k as f32 * TAU / spokes as f32;
+            [0.0, radius * a.cos(), radius * a.sin()]
+        },
+    )
 }
 
 /// A circular tube bent along an arc of centreline radius `bend` in the xy-plane, from angle 0

@@ -98,19 +98,41 @@ fn main() {
     }
     let sim = &mut config.sim;
     sim.self_contact &= !a.no_self;
-    if let Some(v) = a.relax { sim.relax_s = v }
-    if let Some(v) = a.substeps { sim.substeps = v }
-    if let Some(v) = a.refine { sim.refine = v }
+    if let Some(v) = a.relax {
+        sim.relax_s = v
+    }
+    if let Some(v) = a.substeps {
+        sim.substeps = v
+    }
+    if let Some(v) = a.refine {
+        sim.refine = v
+    }
     sim.nearest &= !a.sections;
-    if let Some(v) = a.stretch_passes { sim.stretch_passes = v }
-    if let Some(v) = a.contact_passes { sim.contact_passes = v }
-    if let Some(v) = a.max_speed { sim.max_speed_mm_s = v }
-    if let Some(v) = a.margin { sim.margin_mm = v }
+    if let Some(v) = a.stretch_passes {
+        sim.stretch_passes = v
+    }
+    if let Some(v) = a.contact_passes {
+        sim.contact_passes = v
+    }
+    if let Some(v) = a.max_speed {
+        sim.max_speed_mm_s = v
+    }
+    if let Some(v) = a.margin {
+        sim.margin_mm = v
+    }
     let wall = &mut config.wall;
-    if let Some(v) = a.wall_max { wall.max_out_mm = v }
-    if let Some(v) = a.wall_node { wall.node_spacing_mm = v }
-    if let Some(v) = a.wall_membrane { wall.membrane_ratio = v }
-    if let Some(v) = a.wall_stiffness { wall.stiffness_kpa_per_mm = v }
+    if let Some(v) = a.wall_max {
+        wall.max_out_mm = v
+    }
+    if let Some(v) = a.wall_node {
+        wall.node_spacing_mm = v
+    }
+    if let Some(v) = a.wall_membrane {
+        wall.membrane_ratio = v
+    }
+    if let Some(v) = a.wall_stiffness {
+        wall.stiffness_kpa_per_mm = v
+    }
     let scene = a.scene.name();
     let t0 = Instant::now();
     let colon = match a.scene {
@@ -130,13 +152,7 @@ fn main() {
         std::process::exit(1)
     });
     let r0 = world.report().clone();
-    println!(
-        "start: initial fit {} detections; {} contacts, max penetration {:.3} mm, escaped {}",
-        world.fit_iterations(),
-        r0.contacts,
-        r0.max_penetration_mm,
-        r0.escaped
-    );
+    println!("start: initial fit {} detections; {} contacts, max penetration {:.3} mm, escaped {}", world.fit_iterations(), r0.contacts, r0.max_penetration_mm, r0.escaped);
     struct Phase {
         name: &'static str,
         frames: u64,
@@ -162,7 +178,11 @@ fn main() {
         if trace_pen.is_some_and(|t| r.max_penetration_mm > t) {
             // The deepest contact, and what the same sample had at the frame's start.
             let c = world.contacts().iter().find(|c| c.sample == r.deepest_sample && c.kind == 0).expect("deepest contact");
-            let was: Vec<String> = before.iter().filter(|p| p.sample == c.sample && p.kind == 0).map(|p| format!("depth {:.3} mm flags {} normal {:?} at ring {} spoke {}", p.depth, p.flags, p.normal, p.index_b, p.spoke_b)).collect();
+            let was: Vec<String> = before
+                .iter()
+                .filter(|p| p.sample == c.sample && p.kind == 0)
+                .map(|p| format!("depth {:.3} mm flags {} normal {:?} at ring {} spoke {}", p.depth, p.flags, p.normal, p.index_b, p.spoke_b))
+                .collect();
             println!(
                 "frame {} ({}): sample {} depth {:.3} mm flags {} normal {:?} at ring {} spoke {}; at the frame's start: {}",
                 r.frame,
@@ -219,13 +239,7 @@ fn main() {
     }
     let wall_s = t.elapsed().as_secs_f64();
     let n = frames.max(1) as f64;
-    println!(
-        "{frames} frames: {:.0} frames/s ({:.1} us/frame: physics {:.1} us, detection {:.1} us)",
-        frames as f64 / wall_s,
-        wall_s / n * 1e6,
-        physics / n * 1e6,
-        detect / n * 1e6
-    );
+    println!("{frames} frames: {:.0} frames/s ({:.1} us/frame: physics {:.1} us, detection {:.1} us)", frames as f64 / wall_s, wall_s / n * 1e6, physics / n * 1e6, detect / n * 1e6);
     println!("max penetration {pen:.3} mm (frame {worst_frame}); frames with escaped samples {esc_frames} (at most {esc_max} in a frame); contacts at most {contacts_max}; self penetration at most {self_pen:.3} mm; no NaN");
     println!("hand force up to {max_force:.1} N; wall displaced up to {max_wall:.2} mm, at most {max_nodes} wall nodes active; scope length error down to {min_len:+.2e}");
     println!("frames where the speed limit engaged {limited_frames}; samples behind the anus flagged outside by the detector (not escapes) at most {body_flagged} per frame");

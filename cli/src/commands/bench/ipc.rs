@@ -1,7 +1,7 @@
 //! `lumen bench ipc [--quick] [--out DIR]`.
 
-use crate::ipc::ipc::{IpcBench, IpcReport};
 use crate::commands::{CliError, CliResult};
+use crate::ipc::ipc::{IpcBench, IpcReport};
 use clap::Args;
 use std::path::PathBuf;
 
