@@ -314,7 +314,7 @@ fn state_index(k: usize) -> usize {
 
 /// Frames one session submits before the other takes its turn: the detection and the bare echo
 /// are measured in alternating blocks of this many frames, so a change in the machine's load
-/// (this VM's medians move by 40% from one minute to the next) falls on both alike and
+/// (a shared VM's medians move by tens of percent from one minute to the next) falls on both alike and
 /// `p50 - echo - detect` compares like with like.
 const BLOCK: usize = 100;
 

@@ -3,10 +3,9 @@
 //!
 //! Every round trip of `lumen bench ipc` wakes two sleeping threads (the daemon's on the frame,
 //! the client's on the reply). Where the two run on different cores of a virtual machine, each
-//! wake-up goes through the hypervisor: measured on the 2-core development VM, this floor alone
-//! was p50 97-156 us and p99 163-259 us, where the same two threads kept on one core
-//! (`taskset -c 0`) took 6-18 us. A round-trip target below this floor cannot be met on that
-//! machine by anything the daemon does.
+//! wake-up goes through the hypervisor, and a round-trip target below this floor cannot be met
+//! on that machine by anything the daemon does (the development VM's figures:
+//! `docs/measurements.md`).
 
 use super::quantile_us;
 use serde::Serialize;
