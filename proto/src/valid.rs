@@ -4,8 +4,75 @@
 
 use crate::contact::ContactKind;
 use crate::error::{InputError, SpecError};
-use crate::scene::SceneSpec;
+use crate::limits::*;
+use crate::scene::{BodySpec, SceneSpec, Shape};
 use crate::state::StateLayout;
+
+impl SceneSpec {
+    /// Checks every count, limit and pair; returns the scene with its pairs resolved to body
+    /// indices and its state layout, computed once.
+    pub fn validate(&self) -> Result<ValidScene, SpecError> {
+        let pairs = self.resolve()?;
+        Ok(ValidScene::new(self.clone(), pairs))
+    }
+
+    /// Checks every count, limit and pair; returns the pairs resolved to body indices.
+    pub(crate) fn resolve(&self) -> Result<Vec<PairIndex>, SpecError> {
+        if self.bodies.is_empty() {
+            return Err(SpecError::NoBodies);
+        }
+        if self.bodies.len() > MAX_BODIES {
+            return Err(SpecError::TooManyBodies { got: self.bodies.len(), max: MAX_BODIES });
+        }
+        if self.pairs.len() > MAX_PAIRS {
+            return Err(SpecError::TooManyPairs { got: self.pairs.len(), max: MAX_PAIRS });
+        }
+        if !(1..=MAX_PRECISION).contains(&self.precision) {
+            return Err(SpecError::Precision(self.precision));
+        }
+        if self.refine > MAX_REFINE {
+            return Err(SpecError::Refine(self.refine));
+        }
+        if !(0.0..=1.0).contains(&self.alpha) {
+            return Err(SpecError::Alpha(self.alpha));
+        }
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(SpecError::Margin(self.margin));
+        }
+        for (i, b) in self.bodies.iter().enumerate() {
+            b.validate()?;
+            if self.bodies[..i].iter().any(|o| o.name == b.name) {
+                return Err(SpecError::DuplicateName(b.name.clone()));
+            }
+        }
+        let floats: usize = self.bodies.iter().map(BodySpec::floats).sum();
+        if floats > MAX_STATE_FLOATS {
+            return Err(SpecError::StateTooLarge { got: floats, max: MAX_STATE_FLOATS });
+        }
+        let mut resolved = Vec::with_capacity(self.pairs.len());
+        for (p, pair) in self.pairs.iter().enumerate() {
+            let find = |name: &str| self.body_index(name).ok_or_else(|| SpecError::UnknownBody { pair: p, name: name.to_owned() });
+            let (a, b) = (find(&pair.a)?, find(&pair.b)?);
+            let bad = |reason| Err(SpecError::BadPair { pair: p, a: pair.a.clone(), b: pair.b.clone(), reason });
+            let a_rod = matches!(self.bodies[a].shape, Shape::Rod { .. });
+            let b_rod = matches!(self.bodies[b].shape, Shape::Rod { .. });
+            if !a_rod {
+                return bad("body a must be a rod");
+            }
+            match pair.kind {
+                ContactKind::Interior if b_rod => return bad("interior contacts need a tube as body b"),
+                ContactKind::SelfContact if a != b => return bad("self contact names the same rod twice"),
+                ContactKind::Exterior | ContactKind::Interior if a == b => return bad("a body against itself is a self contact"),
+                _ => {}
+            }
+            if self.pairs[..p].iter().any(|q| q.a == pair.a && q.b == pair.b && q.kind == pair.kind) {
+                return bad("declared twice");
+            }
+            resolved.push(PairIndex { a, b, kind: pair.kind });
+        }
+        Ok(resolved)
+    }
+}
 
 /// A declared pair resolved to body indices: `a` is always a rod; `a == b` exactly for
 /// [`ContactKind::SelfContact`]; `b` is a tube for [`ContactKind::Interior`].
