@@ -141,7 +141,7 @@ pub struct Near {
 /// Walls besides the nearest that [`nearest`] reports at most: a pocket of the real colon
 /// holds the scope's end between three or four (the side wall, a fold's front, the valley
 /// between them).
-pub const MAX_OTHERS: usize = 3;
+pub const MAX_OTHERS: usize = lumen_proto::limits::MAX_OTHER_WALLS;
 
 /// Two local minima of the distance to the wall count as two walls when their normals differ
 /// by more than this, degrees: the side wall and a fold's front meet at about a right angle; a

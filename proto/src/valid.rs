@@ -5,7 +5,7 @@
 use crate::contact::ContactKind;
 use crate::error::{InputError, SpecError};
 use crate::limits::*;
-use crate::scene::{BodySpec, SceneSpec, Shape};
+use crate::scene::{BodySpec, Method, SceneSpec, Shape};
 use crate::state::StateLayout;
 
 impl SceneSpec {
@@ -91,13 +91,22 @@ pub struct ValidScene {
     spec: SceneSpec,
     pairs: Vec<PairIndex>,
     layout: StateLayout,
+    max_contacts: usize,
 }
 
 impl ValidScene {
     /// Only after validation (see [`SceneSpec::validate`]).
     pub(crate) fn new(spec: SceneSpec, pairs: Vec<PairIndex>) -> Self {
         let layout = StateLayout::of(&spec);
-        Self { spec, pairs, layout }
+        let max_contacts = max_contacts(&spec, &pairs);
+        Self { spec, pairs, layout, max_contacts }
+    }
+
+    /// Most contacts one frame of this scene can produce: one per sample of each pair's rod
+    /// (`(points - 1) * precision + 1`), and for an interior pair of the signed method with
+    /// `nearest`, [`MAX_OTHER_WALLS`] more per sample. A reply sized for this is never cut.
+    pub fn max_contacts(&self) -> usize {
+        self.max_contacts
     }
 
     /// The spec, as declared.
@@ -124,6 +133,18 @@ impl ValidScene {
     pub fn into_spec(self) -> SceneSpec {
         self.spec
     }
+}
+
+/// See [`ValidScene::max_contacts`] (at least 1, so a reply buffer is never empty).
+fn max_contacts(spec: &SceneSpec, pairs: &[PairIndex]) -> usize {
+    let x = spec.precision as usize;
+    let others = spec.nearest && spec.method == Method::Signed;
+    let per_pair = |p: &PairIndex| {
+        let samples = spec.bodies[p.a].points().saturating_sub(1) * x + 1;
+        let per_sample = if others && p.kind == ContactKind::Interior { 1 + MAX_OTHER_WALLS } else { 1 };
+        samples * per_sample
+    };
+    pairs.iter().map(per_pair).sum::<usize>().max(1)
 }
 
 impl TryFrom<SceneSpec> for ValidScene {
@@ -155,5 +176,27 @@ mod tests {
         let mut bad = spec;
         bad.precision = 0;
         assert_eq!(ValidScene::try_from(bad), Err(SpecError::Precision(0)));
+    }
+
+    #[test]
+    fn replies_are_sized_for_every_wall_a_sample_can_report() {
+        // A 160-point scope at precision 4 (637 samples) inside a colon and against a second
+        // rod: one contact per sample and pair; with `nearest`, interior samples may add
+        // MAX_OTHER_WALLS other walls each (the daemon once cut those replies at 637 and the
+        // scope's tip lost its contacts).
+        let mut spec = SceneSpec::new(
+            vec![
+                BodySpec { name: "colon".into(), shape: Shape::Tube { rings: 10, spokes: 8 } },
+                BodySpec { name: "scope".into(), shape: Shape::Rod { points: 160, radius: vec![6.5] } },
+                BodySpec { name: "tool".into(), shape: Shape::Rod { points: 3, radius: vec![1.0] } },
+            ],
+            vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }, PairSpec { a: "tool".into(), b: "scope".into(), kind: ContactKind::Exterior }],
+        );
+        let tool = 2 * 4 + 1;
+        assert_eq!(spec.validate().unwrap().max_contacts(), 637 + tool);
+        spec.nearest = true;
+        assert_eq!(spec.validate().unwrap().max_contacts(), 637 * (1 + MAX_OTHER_WALLS) + tool);
+        spec.method = Method::Thesis;
+        assert_eq!(spec.validate().unwrap().max_contacts(), 637 + tool, "the published method reports one wall per sample");
     }
 }

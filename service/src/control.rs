@@ -19,12 +19,6 @@ fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
     ControlReply::Error(ControlError { code, message: message.into() })
 }
 
-/// Most contacts a spec can produce in one frame: one per sample of each pair's rod.
-pub fn contact_bound(spec: &SceneSpec) -> usize {
-    let x = spec.precision as usize;
-    spec.pairs.iter().filter_map(|p| spec.body_index(&p.a)).map(|a| (spec.bodies[a].points().saturating_sub(1)) * x + 1).sum::<usize>().max(1)
-}
-
 /// Bytes of shared memory an iceoryx2 session pins: the client's frame segment and the
 /// daemon's contacts segment, each sized for every subscriber's buffers plus one loan.
 pub fn session_bytes(floats: usize, max_contacts: usize, observers: usize) -> usize {
@@ -72,7 +66,7 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
     };
     let limits = registry.limits;
     let layout = scene.layout().clone();
-    let max_contacts = contact_bound(&spec).min(limits.max_contacts);
+    let max_contacts = scene.max_contacts().min(limits.max_contacts);
     let observers = limits.max_observers;
     let bytes = match transport {
         Transport::Iceoryx2 => session_bytes(layout.floats, max_contacts, observers),
@@ -138,9 +132,16 @@ mod tests {
     #[test]
     fn open_sizes_checks_and_registers() {
         let reg = Registry::new(Limits { max_sessions: 1, max_session_mib: 64, ..Limits::default() });
-        assert_eq!(contact_bound(&spec(1250)), 159 * 4 + 1);
+        assert_eq!(spec(1250).validate().unwrap().max_contacts(), 159 * 4 + 1);
         let ControlReply::Opened(info) = handle(&reg, Transport::Iceoryx2, open_req(spec(1250)), |_| Ok(())) else { panic!() };
         assert_eq!((info.floats, info.max_contacts), (1250 * 33 * 3 + 480, 637));
+        // With `nearest`, every interior sample may report up to MAX_OTHER_WALLS more walls:
+        // the reply is sized for them, not cut at one per sample.
+        let mut nearest = spec(1250);
+        nearest.nearest = true;
+        let roomy = Registry::new(Limits::default());
+        let ControlReply::Opened(wide) = handle(&roomy, Transport::Iceoryx2, open_req(nearest), |_| Ok(())) else { panic!() };
+        assert_eq!(wide.max_contacts as usize, 637 * (1 + lumen_proto::limits::MAX_OTHER_WALLS));
         assert_eq!(info.frame, format!("lumen/session/{}/frame", info.session));
         // Full: the second is refused as busy, with the limit named.
         let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Ok(())) else { panic!() };
