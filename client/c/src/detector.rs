@@ -1,0 +1,141 @@
+//! `lumen_detector_*`: a [`Detector`] behind an opaque handle, for one scene, fed one state per
+//! frame.
+
+use crate::boundary::call;
+use crate::error::Error;
+use crate::status::LumenStatus;
+use lumen_detect::Detector;
+use lumen_proto::{Contact, SceneSpec};
+use std::ffi::c_char;
+use std::ptr;
+
+/// A detector for one scene (opaque): made by `lumen_detector_new`, freed by
+/// `lumen_detector_free`. It keeps each rod sample's place from frame to frame, so feed it the
+/// frames of one simulation in order.
+///
+/// Threading: one thread at a time may call a detector (it may move between threads between
+/// calls); distinct detectors share nothing and may run on distinct threads at once.
+pub struct LumenDetector {
+    detector: Detector,
+    /// Set while a frame runs; still set after a panic, when the buffers may be half-written.
+    poisoned: bool,
+}
+
+// A handle may move between threads between calls (see the type's documentation).
+const _: () = {
+    const fn send<T: Send>() {}
+    send::<LumenDetector>();
+};
+
+impl LumenDetector {
+    /// One frame's contacts, or why there are none; refuses to run after a panic.
+    fn detect(&mut self, state: &[f32]) -> Result<&[Contact], Error> {
+        if self.poisoned {
+            return Err(Error::Poisoned);
+        }
+        // Stays set only if the frame unwinds: an error return leaves the detector sound.
+        self.poisoned = true;
+        let contacts = self.detector.detect(state);
+        self.poisoned = false;
+        Ok(contacts?)
+    }
+}
+
+/// Makes a detector for the scene spec `spec_json` (`len` bytes of UTF-8 JSON, no NUL needed;
+/// the format of proto/README.md: `bodies`, `pairs`, optional `precision`, `alpha`, `margin`,
+/// `method`, `nearest`, `refine`), validated once here.
+///
+/// On `LUMEN_STATUS_OK`, `*out` is the new detector, owned by the caller until
+/// `lumen_detector_free`. Otherwise `*out` is NULL and the status is `LUMEN_STATUS_BAD_UTF8`,
+/// `LUMEN_STATUS_BAD_SPEC` (the message names the body or pair) or
+/// `LUMEN_STATUS_NULL_ARGUMENT`. The spec's bytes are not kept.
+///
+/// # Safety
+/// `spec_json` points to `len` readable bytes; `out` is NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn lumen_detector_new(spec_json: *const c_char, len: usize, out: *mut *mut LumenDetector) -> LumenStatus {
+    call(|| {
+        // SAFETY: `out` is NULL or writable (the caller's contract).
+        let out = unsafe { out.as_mut() }.ok_or(Error::NullArgument("out"))?;
+        *out = ptr::null_mut();
+        if spec_json.is_null() {
+            return Err(Error::NullArgument("spec_json"));
+        }
+        // SAFETY: `spec_json` points to `len` readable bytes (the caller's contract).
+        let bytes = unsafe { std::slice::from_raw_parts(spec_json.cast::<u8>(), len) };
+        let text = std::str::from_utf8(bytes).map_err(Error::BadUtf8)?;
+        let spec: SceneSpec = serde_json::from_str(text).map_err(Error::BadJson)?;
+        let scene = spec.validate().map_err(Error::BadSpec)?;
+        *out = Box::into_raw(Box::new(LumenDetector { detector: Detector::new(&scene), poisoned: false }));
+        Ok(())
+    })
+}
+
+/// Frees a detector and the contacts it returned last. NULL is a no-op.
+///
+/// # Safety
+/// `detector` is NULL or came from `lumen_detector_new` and was not freed yet; no call on it
+/// runs meanwhile, and none follows.
+#[no_mangle]
+pub unsafe extern "C" fn lumen_detector_free(detector: *mut LumenDetector) {
+    if !detector.is_null() {
+        call(|| {
+            // SAFETY: made by `Box::into_raw` in `lumen_detector_new`, freed once (the caller's contract).
+            drop(unsafe { Box::from_raw(detector) });
+            Ok(())
+        });
+    }
+}
+
+/// Writes to `*out` the number of floats of one frame's state for this detector's scene (the
+/// `len` `lumen_detector_detect` wants): per tube `rings * (spokes + 1) * 3`, per rod
+/// `points * 3`, in the spec's order of bodies.
+///
+/// # Safety
+/// `detector` is NULL or a live detector; `out` is NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn lumen_detector_floats(detector: *const LumenDetector, out: *mut usize) -> LumenStatus {
+    call(|| {
+        // SAFETY: NULL or writable, NULL or live (the caller's contract).
+        let out = unsafe { out.as_mut() }.ok_or(Error::NullArgument("out"))?;
+        *out = 0;
+        let detector = unsafe { detector.as_ref() }.ok_or(Error::NullArgument("detector"))?;
+        *out = detector.detector.layout().floats;
+        Ok(())
+    })
+}
+
+/// Runs one frame: `state` is `len` floats laid out as proto/README.md says (every body in
+/// the spec's order; tube: per ring its control point then its radial vectors, relative to
+/// it; rod: its points), all finite.
+///
+/// On `LUMEN_STATUS_OK`, `*contacts` points to `*count` contacts (possibly none), ordered by
+/// pair, then by rod sample. They live inside the detector: read them before the next call on
+/// it or its free, which overwrite them; never free them. On any other status `*contacts` is
+/// NULL and `*count` 0; `LUMEN_STATUS_BAD_STATE` (wrong length, non-finite value) leaves the
+/// detector's history as it was, so the next good frame continues.
+///
+/// # Safety
+/// `detector` is NULL or a live detector no other thread is calling; `state` points to `len`
+/// readable floats; `contacts` and `count` are NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn lumen_detector_detect(detector: *mut LumenDetector, state: *const f32, len: usize, contacts: *mut *const Contact, count: *mut usize) -> LumenStatus {
+    call(|| {
+        // SAFETY: NULL or writable (the caller's contract).
+        let (contacts, count) = unsafe { (contacts.as_mut(), count.as_mut()) };
+        let contacts = contacts.ok_or(Error::NullArgument("contacts"))?;
+        *contacts = ptr::null();
+        let count = count.ok_or(Error::NullArgument("count"))?;
+        *count = 0;
+        // SAFETY: NULL or live, and no other thread calls it (the caller's contract).
+        let detector = unsafe { detector.as_mut() }.ok_or(Error::NullArgument("detector"))?;
+        if state.is_null() {
+            return Err(Error::NullArgument("state"));
+        }
+        // SAFETY: `state` points to `len` readable floats (the caller's contract).
+        let state = unsafe { std::slice::from_raw_parts(state, len) };
+        let found = detector.detect(state)?;
+        (*contacts, *count) = (found.as_ptr(), found.len());
+        Ok(())
+    })
+}
