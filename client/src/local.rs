@@ -18,7 +18,6 @@ use lumen_proto::wire::{ContactsHeader, FrameHeader};
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::CONTROL;
 use lumen_transport::shm::{config, node, open_contacts, open_frame, service_name, ContactsService, Svc, EVENT_PEER_DIED, EVENT_SENT, LIVENESS_PERIOD};
-pub use lumen_transport::shm::{remove_prefix, shm_files};
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 

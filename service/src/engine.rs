@@ -12,7 +12,6 @@ use std::time::Instant;
 /// A session's detector, layout and bookkeeping.
 pub struct Engine {
     pub id: u64,
-    pub layout: StateLayout,
     /// `None`: an echo session (benchmarks): every frame gets an empty `Ok` reply.
     detector: Option<Detector>,
     max_contacts: usize,
@@ -24,7 +23,12 @@ impl Engine {
     /// An engine for the session in `entry`, whose scene was validated when it opened.
     pub fn new(entry: Arc<Entry>, echo: bool) -> Self {
         let detector = (!echo).then(|| Detector::new(&entry.scene));
-        Self { id: entry.info.session, layout: entry.scene.layout().clone(), detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry }
+        Self { id: entry.info.session, detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry }
+    }
+
+    /// Where each body's floats go in this session's frames (the scene's own layout).
+    pub fn layout(&self) -> &StateLayout {
+        self.entry.scene.layout()
     }
 
     /// Runs one frame: `frame` is the header and floats if they were readable, else the header
@@ -32,7 +36,7 @@ impl Engine {
     /// contacts to send with it.
     pub fn run(&mut self, frame: Result<(FrameHeader, &[f32]), (FrameHeader, FrameError)>) -> (ContactsHeader, &[Contact]) {
         let (header, state) = match frame {
-            Ok((h, s)) => match h.check(self.id, &self.layout, s.len()) {
+            Ok((h, s)) => match h.check(self.id, self.entry.scene.layout(), s.len()) {
                 Ok(()) => (h, s),
                 Err(e) => return (self.refuse(&h, &e), &[]),
             },
@@ -136,7 +140,7 @@ mod tests {
     #[test]
     fn absurd_and_bad_frames_get_replies_and_good_ones_still_work() {
         let mut e = engine();
-        let floats = e.layout.floats;
+        let floats = e.layout().floats;
         let mut state = vec![0.0f32; floats];
         lumen_scene::frames::write_state(0, &mut state);
         let id = e.id;

@@ -106,7 +106,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     let publisher = z.declare_publisher(info.contacts.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
     let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
-    let mut state: Vec<f32> = Vec::with_capacity(engine.layout.floats);
+    let mut state: Vec<f32> = Vec::with_capacity(engine.layout().floats);
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
     let _ = ready.send(Ok(()));
     let opened = Instant::now();
@@ -117,7 +117,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             Ok(Some(sample)) => {
                 let received = Instant::now();
                 // Anything at all may arrive on the key: decoding checks every length first.
-                let decoded = decode_payload(sample.payload(), engine.id, &engine.layout, &mut state);
+                let decoded = decode_payload(sample.payload(), engine.id, engine.layout(), &mut state);
                 let (mut reply, contacts) = engine.run(decoded.map(|h| (h, state.as_slice())));
                 // zenoh takes ownership of what it sends: one buffer per reply.
                 let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));

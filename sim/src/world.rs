@@ -51,7 +51,7 @@ use crate::wall::Wall;
 use lumen_detect::V3d;
 use lumen_detect::{Detector, Tube};
 use lumen_proto::contact::FLAG_OUTSIDE;
-use lumen_proto::{Contact, ContactKind, SceneSpec, SpecError, StateLayout, ValidScene};
+use lumen_proto::{Contact, ContactKind, SceneSpec, SpecError, ValidScene};
 use std::fmt;
 use std::time::Instant;
 
@@ -222,7 +222,6 @@ pub struct World<S: ContactSource> {
     raw: Vec<Contact>,
     source: S,
     scene: ValidScene,
-    layout: StateLayout,
     rest_colon: Vec<f32>,
     axis_origin: V3d,
     axis_dir: V3d,
@@ -280,8 +279,7 @@ impl<S: ContactSource> World<S> {
 
     /// The simulation of `tube` for its validated `scene` (the spec of [`setup::scene_spec`]).
     fn build(tube: &Tube, config: SimConfig, source: S, points: Vec<V3d>, scene: ValidScene) -> Result<Self, SimError> {
-        let layout = scene.layout().clone();
-        let mut rest_colon = Vec::with_capacity(layout.bodies[0].floats());
+        let mut rest_colon = Vec::with_capacity(scene.layout().bodies[0].floats());
         tube.write_state(&mut rest_colon);
         let (axis_origin, axis_dir) = setup::insertion_axis(tube);
         let up = if axis_dir.y.abs() < 0.9 { V3d::y() } else { V3d::x() };
@@ -301,7 +299,6 @@ impl<S: ContactSource> World<S> {
             raw: Vec::new(),
             source,
             scene,
-            layout,
             rest_colon,
             axis_origin,
             axis_dir,
@@ -554,10 +551,10 @@ impl<S: ContactSource> World<S> {
     /// Writes the frame's state into the source's buffer and detects.
     fn write_and_detect(&mut self) -> Result<(), SimError> {
         let (buf, kept) = self.source.frame().map_err(SimError::Source)?;
-        if buf.len() != self.layout.floats {
-            return Err(SimError::FrameSize { expected: self.layout.floats, got: buf.len() });
+        if buf.len() != self.scene.layout().floats {
+            return Err(SimError::FrameSize { expected: self.scene.layout().floats, got: buf.len() });
         }
-        let tube = self.layout.bodies[0];
+        let tube = self.scene.layout().bodies[0];
         let stride = tube.stride();
         let spokes = tube.spokes;
         let at = move |tip: u32| {
@@ -568,7 +565,7 @@ impl<S: ContactSource> World<S> {
             buf[tube.offset..tube.offset + tube.floats()].copy_from_slice(&self.rest_colon);
         }
         self.wall.write_spokes(!kept, |tip, s| buf[at(tip)..at(tip) + 3].copy_from_slice(&s));
-        let rod = self.layout.bodies[1];
+        let rod = self.scene.layout().bodies[1];
         for (j, p) in self.rod.x.iter().rev().enumerate() {
             let o = rod.offset + 3 * j;
             buf[o] = p.x as f32;
