@@ -1,7 +1,7 @@
 //! JSON control replies, shared by both transports.
 
 use crate::Error;
-use lumen_proto::session::ControlReply;
+use lumen_proto::session::{ControlReply, ErrorCode};
 use std::time::Duration;
 
 /// How long a session waits for the daemon's answer when it reopens or asks whether it still
@@ -18,5 +18,15 @@ pub(crate) fn unexpected(reply: ControlReply) -> Error {
     match reply {
         ControlReply::Error(e) => Error::Refused(e),
         other => Error::Protocol(format!("unexpected control reply: {other:?}")),
+    }
+}
+
+/// The outcome of a close: freed now, or already gone (a daemon restarted meanwhile, or the
+/// session expired), which is what the caller wanted too.
+pub(crate) fn closed(reply: Result<ControlReply, Error>, session: u64) -> Result<(), Error> {
+    match reply? {
+        ControlReply::Closed { session: s } if s == session => Ok(()),
+        ControlReply::Error(e) if e.code == ErrorCode::UnknownSession => Ok(()),
+        other => Err(unexpected(other)),
     }
 }

@@ -45,6 +45,7 @@ pub use view::ContactsView;
 use lumen_proto::session::{ControlReply, ControlRequest};
 use lumen_proto::wire::PROTOCOL_VERSION;
 use lumen_proto::SceneSpec;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// How long control requests (open, describe, status) wait for the daemon.
@@ -59,6 +60,16 @@ pub struct Client {
 enum Inner {
     Local(local::LocalClient),
     Zenoh(remote::ZenohClient),
+}
+
+/// A zenoh client's TLS material, as PEM files.
+#[derive(Debug, Clone)]
+pub struct Tls {
+    /// The certificate authority that signed the daemon's certificate.
+    pub root_ca: PathBuf,
+    /// This client's certificate and private key, for a daemon that requires client
+    /// certificates (mutual TLS); `None` otherwise.
+    pub identity: Option<(PathBuf, PathBuf)>,
 }
 
 /// Options of a local (iceoryx2) client.
@@ -94,13 +105,27 @@ impl Client {
     /// A client of the daemon at a TLS endpoint such as `tls/lab-server:7447`, trusting the
     /// certificate authority in the PEM file `root_ca` (the daemon's certificate must be signed
     /// by it and name the host).
-    pub fn zenoh_tls(endpoint: &str, root_ca: &std::path::Path) -> Result<Self, Error> {
+    pub fn zenoh_tls(endpoint: &str, root_ca: &Path) -> Result<Self, Error> {
+        Self::zenoh_with_tls(endpoint, &Tls { root_ca: root_ca.to_owned(), identity: None })
+    }
+
+    /// A client of the daemon at a TLS endpoint with the given TLS material: the authority
+    /// that signed the daemon's certificate and, for a daemon that asks for client
+    /// certificates (mutual TLS), this client's own certificate and key.
+    pub fn zenoh_with_tls(endpoint: &str, tls: &Tls) -> Result<Self, Error> {
         let mut config = lumen_transport::net::config("client", &[], &[endpoint.to_owned()])?;
-        if !root_ca.is_file() {
-            return Err(Error::NoDaemon { transport: Transport::Zenoh, detail: format!("the TLS root certificate {} does not exist", root_ca.display()) });
+        let mut files = vec![("root_ca_certificate", &tls.root_ca)];
+        if let Some((certificate, key)) = &tls.identity {
+            files.extend([("connect_certificate", certificate), ("connect_private_key", key)]);
+            lumen_transport::net::set(&mut config, "transport/link/tls/enable_mtls", "true")?;
         }
-        let value = serde_json::to_string(&root_ca.display().to_string()).expect("a string");
-        lumen_transport::net::set(&mut config, "transport/link/tls/root_ca_certificate", &value)?;
+        for (key, file) in files {
+            if !file.is_file() {
+                return Err(Error::NoDaemon { transport: Transport::Zenoh, detail: format!("the TLS file {} ({key}) does not exist", file.display()) });
+            }
+            let value = serde_json::to_string(&file.display().to_string()).expect("a string");
+            lumen_transport::net::set(&mut config, &format!("transport/link/tls/{key}"), &value)?;
+        }
         Ok(Self { inner: Inner::Zenoh(remote::ZenohClient::with_config(config, endpoint)?), name: default_name() })
     }
 

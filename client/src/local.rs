@@ -157,6 +157,20 @@ impl LocalSession {
         Ok(self.ports.as_ref().expect("just opened"))
     }
 
+    /// Asks the daemon to free the session now (see [`crate::Session::close`]).
+    pub(crate) fn close(mut self) -> Result<(), Error> {
+        let session = self.info.session;
+        let open = self.ports.is_some();
+        // Ports first: the daemon may free the slot as soon as it answers.
+        self.loan = None;
+        self.last = None;
+        self.ports = None;
+        if !open {
+            return Ok(());
+        }
+        crate::control::closed(self.control.request(&ControlRequest::Close { session }, crate::CONTROL_TIMEOUT), session)
+    }
+
     fn lose(&mut self) -> Error {
         self.loan = None;
         self.last = None;

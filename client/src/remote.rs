@@ -167,6 +167,15 @@ impl ZenohSession {
         unknown_session(request_on_async(&self.z, &self.endpoint, &self.describe(), CONTROL_WAIT).await)
     }
 
+    /// Asks the daemon to free the session now (see [`crate::Session::close`]).
+    pub(crate) fn close(mut self) -> Result<(), Error> {
+        let session = self.info.session;
+        if self.channels.take().is_none() {
+            return Ok(());
+        }
+        crate::control::closed(request_on(&self.z, &self.endpoint, &ControlRequest::Close { session }, crate::CONTROL_TIMEOUT), session)
+    }
+
     fn describe(&self) -> ControlRequest {
         ControlRequest::Describe { session: self.info.session }
     }

@@ -104,6 +104,16 @@ impl Session {
         self.submit()
     }
 
+    /// Frees the session on the daemon now and waits for its answer (dropping a session frees
+    /// it too, once the daemon notices the client's ports are gone). A session the daemon no
+    /// longer has (it restarted, or the session expired) counts as closed.
+    pub fn close(self) -> Result<(), Error> {
+        match self.inner {
+            Inner::Local(s) => s.close(),
+            Inner::Zenoh(s) => s.close(),
+        }
+    }
+
     /// The next reply, waiting up to `timeout` (blocking; no busy polling).
     pub fn contacts(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
         match &mut self.inner {

@@ -6,6 +6,7 @@
 //! - [`ChildProcess`]: any child (e.g. the test binary re-run as a client), killed when dropped.
 //! - [`unique_prefix`], [`free_port`]: isolation between tests running at once.
 //! - [`shm_files`]: what a prefix left in `/dev/shm`.
+//! - [`build_c_example`]: a C example of `client/c/examples/` compiled against `liblumen_c.a`.
 //! - [`TestScene`]: a small tube-and-rod scene whose rod presses into the wall, frame by frame.
 //! - [`client_loop`], [`spawn_client_role`]: client processes to kill, and
 //!   [`kill9_and_time_freeing`]: how soon the daemon frees a killed client's session.
@@ -14,7 +15,7 @@
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use lumen_proto::{Contact, SceneSpec};
 use std::io::{BufRead, BufReader};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver};
@@ -351,4 +352,37 @@ pub fn kill9_and_time_freeing(victim: &mut ChildProcess, status: &lumen_client::
     } else {
         Err(last)
     }
+}
+
+/// `file` (`liblumen_c.a` or `liblumen_c.so`) as cargo built it for this test run (a dependency
+/// with `staticlib` and `cdylib` crate types is built whole): in the `deps` folder the test
+/// runs from, or the profile folder above.
+pub fn lumen_c_library(file: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("the test's own path");
+    let deps = exe.parent().expect("the deps folder");
+    [deps, deps.parent().expect("the profile folder")]
+        .iter()
+        .map(|d| d.join(file))
+        .find(|p| p.is_file())
+        .unwrap_or_else(|| panic!("{file} is neither in {} nor above it: the test needs lumen-c as a dependency", deps.display()))
+}
+
+/// Compiles one of `client/c/examples/` with the system's C compiler (`$CC`, else `cc`),
+/// warnings as errors, against `liblumen_c.a`, into `out_dir`; returns the program.
+pub fn build_c_example(name: &str, out_dir: &Path) -> PathBuf {
+    let c = Path::new(env!("CARGO_MANIFEST_DIR")).join("../client/c");
+    let exe = out_dir.join(name);
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let built = Command::new(&cc)
+        .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O1", "-I"])
+        .arg(c.join("include"))
+        .arg(c.join(format!("examples/{name}.c")))
+        .arg(lumen_c_library("liblumen_c.a"))
+        // What the Rust standard library needs from the system (`rustc --print native-static-libs`).
+        .args(["-lgcc_s", "-lutil", "-lrt", "-lpthread", "-lm", "-ldl", "-lc", "-o"])
+        .arg(&exe)
+        .output()
+        .unwrap_or_else(|e| panic!("running {cc}: {e}"));
+    assert!(built.status.success(), "{cc} failed on {name}.c:\n{}", String::from_utf8_lossy(&built.stderr));
+    exe
 }

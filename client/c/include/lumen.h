@@ -37,6 +37,42 @@
 #define LUMEN_NO_SPOKE UINT32_MAX
 
 /**
+ * Version of the frame and contacts layouts (and of the control messages).
+ */
+#define LUMEN_PROTOCOL_VERSION 1
+
+/**
+ * Size of [`FrameHeader`] in bytes.
+ */
+#define LUMEN_FRAME_HEADER_BYTES 40
+
+/**
+ * Size of [`ContactsHeader`] in bytes.
+ */
+#define LUMEN_CONTACTS_HEADER_BYTES 256
+
+/**
+ * Size of one [`Contact`] in bytes.
+ */
+#define LUMEN_CONTACT_BYTES 88
+
+/**
+ * Capacity of [`ContactsHeader::message`] in bytes.
+ */
+#define LUMEN_MESSAGE_BYTES 196
+
+/**
+ * `ContactsHeader::error_*` value meaning "does not apply".
+ */
+#define LUMEN_NO_INDEX UINT32_MAX
+
+/**
+ * `ContactsHeader::flags` bit: more contacts were found than the session's capacity
+ * (`SessionInfo::max_contacts`); the first `count` are sent.
+ */
+#define LUMEN_FLAG_TRUNCATED 1
+
+/**
  * What a call did. `LUMEN_STATUS_OK` is 0; on any other status the call changed nothing but
  * its out-parameters (set to NULL or 0), and `lumen_last_error` says what was wrong.
  */
@@ -50,7 +86,7 @@ enum LumenStatus
    */
   LUMEN_STATUS_OK = 0,
   /**
-   * A pointer argument (or the detector handle) was NULL.
+   * A pointer argument (or a handle) was NULL.
    */
   LUMEN_STATUS_NULL_ARGUMENT = 1,
   /**
@@ -72,12 +108,90 @@ enum LumenStatus
    * A detector that panicked answers `LUMEN_STATUS_PANIC` from then on: free it.
    */
   LUMEN_STATUS_PANIC = 5,
+  /**
+   * A handle is not a live one of the kind the call takes (freed already, never made by
+   * Lumen, or a session given where a client is wanted).
+   */
+  LUMEN_STATUS_BAD_HANDLE = 6,
+  /**
+   * An iceoryx2 (local) client, session or observer was called from a thread other than
+   * the one that made it: make one client per thread.
+   */
+  LUMEN_STATUS_WRONG_THREAD = 7,
+  /**
+   * No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a TLS
+   * file missing): start `lumen serve` and try again.
+   */
+  LUMEN_STATUS_NO_DAEMON = 8,
+  /**
+   * The daemon refused the request (an invalid spec, a limit, an unknown session); the
+   * message has its words and code.
+   */
+  LUMEN_STATUS_REFUSED = 9,
+  /**
+   * No reply within the timeout; the session still works: wait again or submit the next
+   * frame.
+   */
+  LUMEN_STATUS_TIMEOUT = 10,
+  /**
+   * The daemon went away (or no longer has the session). Keep calling
+   * `lumen_session_frame`/`lumen_session_submit`: the session reopens by itself, with a
+   * new id, as soon as a daemon answers again.
+   */
+  LUMEN_STATUS_DISCONNECTED = 11,
+  /**
+   * `lumen_session_submit` without a frame got from `lumen_session_frame` since the last
+   * submit.
+   */
+  LUMEN_STATUS_NO_FRAME = 12,
+  /**
+   * The observed session ended (its client left or the daemon stopped).
+   */
+  LUMEN_STATUS_SESSION_ENDED = 13,
+  /**
+   * The transport failed (iceoryx2: shared memory, permissions, too many ports on a
+   * service; zenoh: an unreachable endpoint, a bad configuration); the message says which.
+   */
+  LUMEN_STATUS_TRANSPORT = 14,
+  /**
+   * The daemon sent something this library does not understand (a version mismatch?).
+   */
+  LUMEN_STATUS_PROTOCOL = 15,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
 typedef enum LumenStatus LumenStatus;
 #else
 typedef int32_t LumenStatus;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What `lumen_observer_next` saw.
+ */
+enum LumenObservedKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : int32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Nothing (the call failed).
+   */
+  LUMEN_OBSERVED_KIND_NOTHING = 0,
+  /**
+   * The newest frame the session's client sent: `frame`, `state`, `floats`.
+   */
+  LUMEN_OBSERVED_KIND_FRAME = 1,
+  /**
+   * A reply of the daemon: `reply`.
+   */
+  LUMEN_OBSERVED_KIND_CONTACTS = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum LumenObservedKind LumenObservedKind;
+#else
+typedef int32_t LumenObservedKind;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -111,6 +225,69 @@ typedef uint8_t LumenContactKind;
 #endif // __cplusplus
 
 /**
+ * What the daemon made of one frame.
+ */
+enum LumenFrameStatus
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint16_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Contacts computed; `count` of them follow.
+   */
+  LUMEN_FRAME_STATUS_OK = 0,
+  /**
+   * Not a frame: shorter than a header, or the magic is wrong.
+   */
+  LUMEN_FRAME_STATUS_MALFORMED = 1,
+  /**
+   * The header's version is not [`PROTOCOL_VERSION`].
+   */
+  LUMEN_FRAME_STATUS_BAD_VERSION = 2,
+  /**
+   * The header names another session.
+   */
+  LUMEN_FRAME_STATUS_BAD_SESSION = 3,
+  /**
+   * The number of floats (header or payload) does not match the spec's state size.
+   */
+  LUMEN_FRAME_STATUS_BAD_LENGTH = 4,
+  /**
+   * The header's body count does not match the spec.
+   */
+  LUMEN_FRAME_STATUS_BAD_COUNTS = 5,
+  /**
+   * A coordinate is NaN or infinite; `error_body`, `error_index`, `error_spoke` say where.
+   */
+  LUMEN_FRAME_STATUS_NON_FINITE = 6,
+  /**
+   * A tube ring is not star-shaped; `error_body`, `error_index`, `error_spoke` say where.
+   */
+  LUMEN_FRAME_STATUS_NOT_STAR_SHAPED = 7,
+  /**
+   * The daemon could not answer this frame (out of shared memory); the session goes on.
+   */
+  LUMEN_FRAME_STATUS_INTERNAL = 8,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum LumenFrameStatus LumenFrameStatus;
+#else
+typedef uint16_t LumenFrameStatus;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * A connection to the daemon (opaque): made by `lumen_client_local` or `lumen_client_zenoh`,
+ * freed by `lumen_client_free`. Sessions and observers it opens live on after it is freed.
+ *
+ * Threading: a local (iceoryx2) client, its sessions and its observers belong to the thread
+ * that made the client (`LUMEN_STATUS_WRONG_THREAD` elsewhere): make one client per thread.
+ * Zenoh ones may be used from any thread, one call at a time per handle.
+ */
+typedef struct LumenClient LumenClient;
+
+/**
  * A detector for one scene (opaque): made by `lumen_detector_new`, freed by
  * `lumen_detector_free`. It keeps each rod sample's place from frame to frame, so feed it the
  * frames of one simulation in order.
@@ -119,6 +296,40 @@ typedef uint8_t LumenContactKind;
  * calls); distinct detectors share nothing and may run on distinct threads at once.
  */
 typedef struct LumenDetector LumenDetector;
+
+/**
+ * A watcher of one session (opaque): made by `lumen_observer_open`, freed by
+ * `lumen_observer_free`.
+ */
+typedef struct LumenObserver LumenObserver;
+
+/**
+ * One open scene (opaque): made by `lumen_session_open`, ended by `lumen_session_close`.
+ *
+ * If the daemon goes away, calls return `LUMEN_STATUS_DISCONNECTED`; keep calling
+ * `lumen_session_frame` and `lumen_session_submit` and the session reopens by itself (same
+ * spec, new id) as soon as a daemon answers again.
+ */
+typedef struct LumenSession LumenSession;
+
+/**
+ * A zenoh client's TLS material: paths of PEM files, NUL-terminated.
+ */
+typedef struct LumenTls {
+  /**
+   * The certificate authority that signed the daemon's certificate (required).
+   */
+  const char *root_ca;
+  /**
+   * This client's certificate, for a daemon that requires client certificates (mutual
+   * TLS); NULL otherwise. Goes with `private_key`.
+   */
+  const char *certificate;
+  /**
+   * The private key of `certificate`; NULL when `certificate` is.
+   */
+  const char *private_key;
+} LumenTls;
 
 /**
  * One contact between a sample of rod `a` and body `b`.
@@ -197,6 +408,161 @@ typedef struct LumenContact {
   float depth;
 } LumenContact;
 
+/**
+ * Header of one frame: who sends it, which frame it is, and how many floats follow.
+ *
+ * The floats that follow are the whole scene state in the layout of
+ * [`crate::state`]: every body's control points and radial vectors in spec order.
+ */
+typedef struct LumenFrameHeader {
+  /**
+   * [`FRAME_MAGIC`].
+   */
+  uint32_t magic;
+  /**
+   * [`PROTOCOL_VERSION`].
+   */
+  uint16_t version;
+  /**
+   * Reserved, 0.
+   */
+  uint16_t flags;
+  /**
+   * The session id from the open reply.
+   */
+  uint64_t session;
+  /**
+   * Frame number chosen by the client (normally counting up from 0); echoed in the reply.
+   */
+  uint64_t frame;
+  /**
+   * The client's own timestamp in nanoseconds (any clock); echoed untouched in the reply.
+   */
+  uint64_t client_time_ns;
+  /**
+   * Number of `f32` values that follow; must equal the spec's state size.
+   */
+  uint32_t floats;
+  /**
+   * Number of bodies the client wrote; must equal the spec's body count.
+   */
+  uint32_t bodies;
+} LumenFrameHeader;
+
+/**
+ * Header of one contacts reply.
+ */
+typedef struct LumenContactsHeader {
+  /**
+   * [`CONTACTS_MAGIC`].
+   */
+  uint32_t magic;
+  /**
+   * [`PROTOCOL_VERSION`].
+   */
+  uint16_t version;
+  /**
+   * [`Status`] as `u16`.
+   */
+  uint16_t status;
+  /**
+   * The session id.
+   */
+  uint64_t session;
+  /**
+   * The frame this answers (0 if the frame was too malformed to read it).
+   */
+  uint64_t frame;
+  /**
+   * The frame's `client_time_ns`, echoed.
+   */
+  uint64_t client_time_ns;
+  /**
+   * Time spent in detection, nanoseconds (0 on error).
+   */
+  uint32_t detect_ns;
+  /**
+   * Number of [`Contact`] records that follow.
+   */
+  uint32_t count;
+  /**
+   * Frames of this session the daemon skipped (a newer one had arrived) since the previous
+   * reply.
+   */
+  uint32_t skipped;
+  /**
+   * Body index of a bad value, or [`NO_INDEX`].
+   */
+  uint32_t error_body;
+  /**
+   * Control point / ring of a bad value, or [`NO_INDEX`].
+   */
+  uint32_t error_index;
+  /**
+   * Radial vector of a bad value, or [`NO_INDEX`] for a control point.
+   */
+  uint32_t error_spoke;
+  /**
+   * Bytes of `message` in use.
+   */
+  uint16_t message_len;
+  /**
+   * `FLAG_*` bits.
+   */
+  uint16_t flags;
+  /**
+   * UTF-8 text saying what was wrong (status != Ok); unused bytes are 0.
+   */
+  uint8_t message[LUMEN_MESSAGE_BYTES];
+} LumenContactsHeader;
+
+/**
+ * One reply of the daemon, borrowed from the session or observer that received it: valid
+ * until the next call on that handle.
+ */
+typedef struct LumenReply {
+  /**
+   * The reply's header: `frame` (the frame it answers), `status` (0: contacts computed;
+   * else `message`/`message_len` say why not, with `error_body`/`error_index`/
+   * `error_spoke`), `detect_ns`, `skipped`, the echoed `client_time_ns`, `flags`.
+   */
+  const struct LumenContactsHeader *header;
+  /**
+   * `count` contacts, ordered by pair then rod sample (none unless `header->status` is 0).
+   */
+  const struct LumenContact *contacts;
+  /**
+   * The number of contacts.
+   */
+  size_t count;
+} LumenReply;
+
+/**
+ * One thing an observer saw, borrowed from it: valid until the next call on the observer.
+ */
+typedef struct LumenObserved {
+  /**
+   * Which of the fields below are set.
+   */
+  LumenObservedKind kind;
+  /**
+   * The frame's header (`kind == LUMEN_OBSERVED_KIND_FRAME`), else NULL.
+   */
+  const struct LumenFrameHeader *frame;
+  /**
+   * The frame's `floats` state values, else NULL.
+   */
+  const float *state;
+  /**
+   * The number of state values.
+   */
+  size_t floats;
+  /**
+   * The reply (`kind == LUMEN_OBSERVED_KIND_CONTACTS`), else empty.
+   */
+  struct LumenReply reply;
+} LumenObserved;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -215,6 +581,46 @@ extern "C" {
 size_t lumen_last_error(char *buf, size_t len);
 
 /**
+ * Connects to the daemon on this machine over iceoryx2 shared memory.
+ *
+ * `prefix` is iceoryx2's `global.prefix` and must be the daemon's (`lumen serve --prefix`);
+ * NULL: the `LUMEN_IOX2_PREFIX` environment variable, else iceoryx2's default. `name` is
+ * what `lumen status` shows for this client's sessions; NULL: the executable's name.
+ * Nothing is sent yet: a missing daemon shows at `lumen_session_open`.
+ *
+ * On `LUMEN_STATUS_OK`, `*out` is the new client, the caller's until `lumen_client_free`.
+ *
+ * # Safety
+ * `prefix` and `name` are NULL or NUL-terminated; `out` is NULL or writable.
+ */
+LumenStatus lumen_client_local(const char *prefix, const char *name, struct LumenClient **out);
+
+/**
+ * Connects to the daemon at a zenoh endpoint: `tcp/HOST:PORT`, or `tls/HOST:PORT` with
+ * `tls` giving the certificate authority (and, for mutual TLS, this client's certificate and
+ * key). `tls` NULL: no TLS material. `name` as in `lumen_client_local`.
+ *
+ * On `LUMEN_STATUS_OK`, `*out` is the new client. `LUMEN_STATUS_NO_DAEMON` when the endpoint
+ * cannot be reached or a TLS file does not exist (the message names it).
+ *
+ * # Safety
+ * `endpoint` is NUL-terminated; `tls` is NULL or points to a `LumenTls` whose strings are
+ * NULL or NUL-terminated; `name` is NULL or NUL-terminated; `out` is NULL or writable.
+ */
+LumenStatus lumen_client_zenoh(const char *endpoint,
+                               const struct LumenTls *tls,
+                               const char *name,
+                               struct LumenClient **out);
+
+/**
+ * Frees a client (its sessions and observers stay open). NULL is a no-op.
+ *
+ * # Safety
+ * No call on `client` runs meanwhile.
+ */
+LumenStatus lumen_client_free(struct LumenClient *client);
+
+/**
  * Makes a detector for the scene spec `spec_json` (`len` bytes of UTF-8 JSON, no NUL needed;
  * the format of proto/README.md: `bodies`, `pairs`, optional `precision`, `alpha`, `margin`,
  * `method`, `nearest`, `refine`), validated once here.
@@ -230,13 +636,13 @@ size_t lumen_last_error(char *buf, size_t len);
 LumenStatus lumen_detector_new(const char *spec_json, size_t len, struct LumenDetector **out);
 
 /**
- * Frees a detector and the contacts it returned last. NULL is a no-op.
+ * Frees a detector and the contacts it returned last. NULL is a no-op (`LUMEN_STATUS_OK`); a
+ * handle freed already is `LUMEN_STATUS_BAD_HANDLE`.
  *
  * # Safety
- * `detector` is NULL or came from `lumen_detector_new` and was not freed yet; no call on it
- * runs meanwhile, and none follows.
+ * No call on `detector` runs meanwhile.
  */
-void lumen_detector_free(struct LumenDetector *detector);
+LumenStatus lumen_detector_free(struct LumenDetector *detector);
 
 /**
  * Writes to `*out` the number of floats of one frame's state for this detector's scene (the
@@ -244,7 +650,7 @@ void lumen_detector_free(struct LumenDetector *detector);
  * `points * 3`, in the spec's order of bodies.
  *
  * # Safety
- * `detector` is NULL or a live detector; `out` is NULL or writable.
+ * `out` is NULL or writable; no call frees `detector` meanwhile.
  */
 LumenStatus lumen_detector_floats(const struct LumenDetector *detector, size_t *out);
 
@@ -260,7 +666,7 @@ LumenStatus lumen_detector_floats(const struct LumenDetector *detector, size_t *
  * detector's history as it was, so the next good frame continues.
  *
  * # Safety
- * `detector` is NULL or a live detector no other thread is calling; `state` points to `len`
+ * no other thread is calling `detector`; `state` points to `len`
  * readable floats; `contacts` and `count` are NULL or writable.
  */
 LumenStatus lumen_detector_detect(struct LumenDetector *detector,
@@ -268,6 +674,119 @@ LumenStatus lumen_detector_detect(struct LumenDetector *detector,
                                   size_t len,
                                   const struct LumenContact **contacts,
                                   size_t *count);
+
+/**
+ * Starts watching session `session` (any client's, on the same transport as `client`).
+ * Older frames not yet seen are skipped (the newest wins); replies come in order while the
+ * observer keeps up. `LUMEN_STATUS_REFUSED` for an unknown session; `LUMEN_STATUS_TRANSPORT`
+ * when the session has all the observers it allows (the message says how many).
+ *
+ * # Safety
+ * `out` is NULL or writable; no call frees `client` meanwhile.
+ */
+LumenStatus lumen_observer_open(struct LumenClient *client,
+                                uint64_t session,
+                                struct LumenObserver **out);
+
+/**
+ * Waits up to `timeout_ms` milliseconds for the next frame or reply of the watched session
+ * and describes it in `*seen`. `LUMEN_STATUS_SESSION_ENDED` once the session is gone,
+ * `LUMEN_STATUS_TIMEOUT` when nothing came.
+ *
+ * # Safety
+ * `seen` is NULL or writable; no call frees `observer` meanwhile.
+ */
+LumenStatus lumen_observer_next(struct LumenObserver *observer,
+                                uint32_t timeout_ms,
+                                struct LumenObserved *seen);
+
+/**
+ * Stops watching and frees the observer. NULL is a no-op.
+ *
+ * # Safety
+ * No call on `observer` runs meanwhile, and none follows.
+ */
+LumenStatus lumen_observer_free(struct LumenObserver *observer);
+
+/**
+ * Opens a session for the scene spec `spec_json` (`len` bytes of UTF-8 JSON, the format of
+ * proto/README.md). The daemon validates it: `LUMEN_STATUS_REFUSED` names what is wrong.
+ *
+ * On `LUMEN_STATUS_OK`, `*out` is the new session, the caller's until `lumen_session_close`.
+ *
+ * # Safety
+ * `spec_json` points to `len` readable bytes; `out` is NULL or writable; no call frees
+ * `client` meanwhile.
+ */
+LumenStatus lumen_session_open(struct LumenClient *client,
+                               const char *spec_json,
+                               size_t len,
+                               struct LumenSession **out);
+
+/**
+ * Writes the session's id to `*out` (it changes when the session reopens after a daemon
+ * restart).
+ *
+ * # Safety
+ * `out` is NULL or writable; no call frees `session` meanwhile.
+ */
+LumenStatus lumen_session_id(struct LumenSession *session, uint64_t *out);
+
+/**
+ * Writes to `*out` how many times the session reopened after losing the daemon.
+ *
+ * # Safety
+ * `out` is NULL or writable; no call frees `session` meanwhile.
+ */
+LumenStatus lumen_session_reconnects(struct LumenSession *session, uint64_t *out);
+
+/**
+ * The frame to fill: `*frame` points to `*floats` floats in the spec's layout (every body in
+ * the spec's order; tube: per ring its control point then its radial vectors, relative to it;
+ * rod: its points). Over iceoryx2 it is the shared memory the daemon will read, with no copy
+ * anywhere; it holds an earlier frame's values, so write every float. It is valid until
+ * `lumen_session_submit` or `lumen_session_close`; calling this again before submitting
+ * returns the same frame.
+ *
+ * `LUMEN_STATUS_DISCONNECTED`: the daemon is gone; call again (this is where the session
+ * reopens).
+ *
+ * # Safety
+ * `frame` and `floats` are NULL or writable; no call frees `session` meanwhile.
+ */
+LumenStatus lumen_session_frame(struct LumenSession *session, float **frame, size_t *floats);
+
+/**
+ * Sends the frame written through `lumen_session_frame`, stamped with the time (for the
+ * round trip) and the next frame number, which goes to `*frame_number` (NULL: not wanted).
+ *
+ * # Safety
+ * `frame_number` is NULL or writable; no call frees `session` meanwhile.
+ */
+LumenStatus lumen_session_submit(struct LumenSession *session, uint64_t *frame_number);
+
+/**
+ * Waits up to `timeout_ms` milliseconds for the next reply (blocking, no busy polling) and
+ * puts it in `*reply`: header, contacts and count, valid until the next call on `session`.
+ * A frame the daemon could not read is still a reply: check `reply->header->status`.
+ * `LUMEN_STATUS_TIMEOUT` when none came (the session still works).
+ *
+ * # Safety
+ * `reply` is NULL or writable; no call frees `session` meanwhile.
+ */
+LumenStatus lumen_session_contacts(struct LumenSession *session,
+                                   uint32_t timeout_ms,
+                                   struct LumenReply *reply);
+
+/**
+ * Ends the session: asks the daemon to free it, waits for the answer, and frees the handle
+ * (whatever the status; a session the daemon no longer has counts as closed). NULL is a
+ * no-op.
+ *
+ * # Safety
+ * No call on `session` runs meanwhile, and none follows.
+ */
+LumenStatus lumen_session_close(struct LumenSession *session);
 
 #ifdef __cplusplus
 }  // extern "C"

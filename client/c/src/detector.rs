@@ -3,9 +3,11 @@
 
 use crate::boundary::call;
 use crate::error::Error;
+use crate::handles::{self, Kind};
 use crate::status::LumenStatus;
+use crate::text;
 use lumen_detect::Detector;
-use lumen_proto::{Contact, SceneSpec};
+use lumen_proto::Contact;
 use std::ffi::c_char;
 use std::ptr;
 
@@ -58,33 +60,25 @@ pub unsafe extern "C" fn lumen_detector_new(spec_json: *const c_char, len: usize
         // SAFETY: `out` is NULL or writable (the caller's contract).
         let out = unsafe { out.as_mut() }.ok_or(Error::NullArgument("out"))?;
         *out = ptr::null_mut();
-        if spec_json.is_null() {
-            return Err(Error::NullArgument("spec_json"));
-        }
         // SAFETY: `spec_json` points to `len` readable bytes (the caller's contract).
-        let bytes = unsafe { std::slice::from_raw_parts(spec_json.cast::<u8>(), len) };
-        let text = std::str::from_utf8(bytes).map_err(Error::BadUtf8)?;
-        let spec: SceneSpec = serde_json::from_str(text).map_err(Error::BadJson)?;
-        let scene = spec.validate().map_err(Error::BadSpec)?;
-        *out = Box::into_raw(Box::new(LumenDetector { detector: Detector::new(&scene), poisoned: false }));
+        let scene = unsafe { text::spec(spec_json, len) }?.validate().map_err(Error::BadSpec)?;
+        *out = handles::register(LumenDetector { detector: Detector::new(&scene), poisoned: false }, Kind::Detector);
         Ok(())
     })
 }
 
-/// Frees a detector and the contacts it returned last. NULL is a no-op.
+/// Frees a detector and the contacts it returned last. NULL is a no-op (`LUMEN_STATUS_OK`); a
+/// handle freed already is `LUMEN_STATUS_BAD_HANDLE`.
 ///
 /// # Safety
-/// `detector` is NULL or came from `lumen_detector_new` and was not freed yet; no call on it
-/// runs meanwhile, and none follows.
+/// No call on `detector` runs meanwhile.
 #[no_mangle]
-pub unsafe extern "C" fn lumen_detector_free(detector: *mut LumenDetector) {
-    if !detector.is_null() {
-        call(|| {
-            // SAFETY: made by `Box::into_raw` in `lumen_detector_new`, freed once (the caller's contract).
-            drop(unsafe { Box::from_raw(detector) });
-            Ok(())
-        });
+pub unsafe extern "C" fn lumen_detector_free(detector: *mut LumenDetector) -> LumenStatus {
+    if detector.is_null() {
+        return LumenStatus::Ok;
     }
+    // SAFETY: no call on it runs meanwhile (the caller's contract).
+    call(|| unsafe { handles::release(detector, Kind::Detector, "detector") }.map(drop))
 }
 
 /// Writes to `*out` the number of floats of one frame's state for this detector's scene (the
@@ -92,14 +86,15 @@ pub unsafe extern "C" fn lumen_detector_free(detector: *mut LumenDetector) {
 /// `points * 3`, in the spec's order of bodies.
 ///
 /// # Safety
-/// `detector` is NULL or a live detector; `out` is NULL or writable.
+/// `out` is NULL or writable; no call frees `detector` meanwhile.
 #[no_mangle]
 pub unsafe extern "C" fn lumen_detector_floats(detector: *const LumenDetector, out: *mut usize) -> LumenStatus {
     call(|| {
         // SAFETY: NULL or writable, NULL or live (the caller's contract).
         let out = unsafe { out.as_mut() }.ok_or(Error::NullArgument("out"))?;
         *out = 0;
-        let detector = unsafe { detector.as_ref() }.ok_or(Error::NullArgument("detector"))?;
+        // SAFETY: no other call frees it meanwhile (the caller's contract).
+        let detector = unsafe { handles::get(detector.cast_mut(), Kind::Detector, "detector") }?;
         *out = detector.detector.layout().floats;
         Ok(())
     })
@@ -116,7 +111,7 @@ pub unsafe extern "C" fn lumen_detector_floats(detector: *const LumenDetector, o
 /// detector's history as it was, so the next good frame continues.
 ///
 /// # Safety
-/// `detector` is NULL or a live detector no other thread is calling; `state` points to `len`
+/// no other thread is calling `detector`; `state` points to `len`
 /// readable floats; `contacts` and `count` are NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn lumen_detector_detect(detector: *mut LumenDetector, state: *const f32, len: usize, contacts: *mut *const Contact, count: *mut usize) -> LumenStatus {
@@ -127,8 +122,8 @@ pub unsafe extern "C" fn lumen_detector_detect(detector: *mut LumenDetector, sta
         *contacts = ptr::null();
         let count = count.ok_or(Error::NullArgument("count"))?;
         *count = 0;
-        // SAFETY: NULL or live, and no other thread calls it (the caller's contract).
-        let detector = unsafe { detector.as_mut() }.ok_or(Error::NullArgument("detector"))?;
+        // SAFETY: no other thread calls it (the caller's contract).
+        let detector = unsafe { handles::get(detector, Kind::Detector, "detector") }?;
         if state.is_null() {
             return Err(Error::NullArgument("state"));
         }

@@ -22,6 +22,16 @@ pub enum Error {
     Poisoned,
     /// A panic caught at the boundary, with its message.
     Panic(String),
+    /// A handle that is not a live one of the right kind.
+    BadHandle { name: &'static str, detail: String },
+    /// A local (iceoryx2) object used from another thread than its own.
+    WrongThread(&'static str),
+    /// A text argument (endpoint, prefix, path, name) is not UTF-8.
+    BadText { name: &'static str, error: std::str::Utf8Error },
+    /// A certificate without its key, or a key without its certificate.
+    HalfIdentity,
+    /// The Rust client's error.
+    Client(lumen_client::Error),
 }
 
 impl Error {
@@ -33,6 +43,20 @@ impl Error {
             Error::BadJson(_) | Error::BadSpec(_) => LumenStatus::BadSpec,
             Error::BadState(_) => LumenStatus::BadState,
             Error::Poisoned | Error::Panic(_) => LumenStatus::Panic,
+            Error::BadHandle { .. } => LumenStatus::BadHandle,
+            Error::WrongThread(_) => LumenStatus::WrongThread,
+            Error::BadText { .. } => LumenStatus::BadUtf8,
+            Error::HalfIdentity => LumenStatus::NullArgument,
+            Error::Client(e) => match e {
+                lumen_client::Error::NoDaemon { .. } => LumenStatus::NoDaemon,
+                lumen_client::Error::Refused(_) => LumenStatus::Refused,
+                lumen_client::Error::Timeout(_) => LumenStatus::Timeout,
+                lumen_client::Error::Disconnected => LumenStatus::Disconnected,
+                lumen_client::Error::NoFrame => LumenStatus::NoFrame,
+                lumen_client::Error::SessionEnded(_) => LumenStatus::SessionEnded,
+                lumen_client::Error::Transport(_) | lumen_client::Error::NoRuntime => LumenStatus::Transport,
+                lumen_client::Error::Protocol(_) => LumenStatus::Protocol,
+            },
         }
     }
 }
@@ -47,11 +71,22 @@ impl fmt::Display for Error {
             Error::BadState(e) => write!(f, "state: {e}"),
             Error::Poisoned => write!(f, "this detector panicked in an earlier call and cannot be used again: free it and make another"),
             Error::Panic(message) => write!(f, "internal error (a caught panic; please report it): {message}"),
+            Error::BadHandle { name, detail } => write!(f, "argument `{name}` is not a live handle: {detail}"),
+            Error::WrongThread(name) => write!(f, "`{name}` is a local (iceoryx2) object of another thread: use it on the thread that made it (one client per thread)"),
+            Error::BadText { name, error } => write!(f, "argument `{name}` is not UTF-8: {error}"),
+            Error::HalfIdentity => write!(f, "TLS: `certificate` and `private_key` go together (both NULL, or both set)"),
+            Error::Client(e) => write!(f, "{e}"),
         }
     }
 }
 
 impl std::error::Error for Error {}
+
+impl From<lumen_client::Error> for Error {
+    fn from(e: lumen_client::Error) -> Self {
+        Error::Client(e)
+    }
+}
 
 impl From<InputError> for Error {
     fn from(e: InputError) -> Self {

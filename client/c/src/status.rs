@@ -7,7 +7,7 @@
 pub enum LumenStatus {
     /// Success.
     Ok = 0,
-    /// A pointer argument (or the detector handle) was NULL.
+    /// A pointer argument (or a handle) was NULL.
     NullArgument = 1,
     /// The scene spec's bytes are not UTF-8.
     BadUtf8 = 2,
@@ -20,4 +20,33 @@ pub enum LumenStatus {
     /// A panic inside Lumen was caught at the boundary (a bug: please report the message).
     /// A detector that panicked answers `LUMEN_STATUS_PANIC` from then on: free it.
     Panic = 5,
+    /// A handle is not a live one of the kind the call takes (freed already, never made by
+    /// Lumen, or a session given where a client is wanted).
+    BadHandle = 6,
+    /// An iceoryx2 (local) client, session or observer was called from a thread other than
+    /// the one that made it: make one client per thread.
+    WrongThread = 7,
+    /// No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a TLS
+    /// file missing): start `lumen serve` and try again.
+    NoDaemon = 8,
+    /// The daemon refused the request (an invalid spec, a limit, an unknown session); the
+    /// message has its words and code.
+    Refused = 9,
+    /// No reply within the timeout; the session still works: wait again or submit the next
+    /// frame.
+    Timeout = 10,
+    /// The daemon went away (or no longer has the session). Keep calling
+    /// `lumen_session_frame`/`lumen_session_submit`: the session reopens by itself, with a
+    /// new id, as soon as a daemon answers again.
+    Disconnected = 11,
+    /// `lumen_session_submit` without a frame got from `lumen_session_frame` since the last
+    /// submit.
+    NoFrame = 12,
+    /// The observed session ended (its client left or the daemon stopped).
+    SessionEnded = 13,
+    /// The transport failed (iceoryx2: shared memory, permissions, too many ports on a
+    /// service; zenoh: an unreachable endpoint, a bad configuration); the message says which.
+    Transport = 14,
+    /// The daemon sent something this library does not understand (a version mismatch?).
+    Protocol = 15,
 }

@@ -138,3 +138,66 @@ fn the_last_error_is_cut_safely_and_kept_per_thread() {
     let other = std::thread::spawn(last_error).join().unwrap();
     assert_eq!(other, "", "another thread has no error yet");
 }
+
+#[test]
+fn freed_foreign_and_wrong_kind_handles_are_bad_handle_not_crashes() {
+    let (_, d) = new(SPEC);
+    assert_eq!(unsafe { lumen_detector_free(d) }, LumenStatus::Ok);
+    // Used after its free, freed twice: refused without being read.
+    assert_eq!(detect(d, &state(0.0)).0, LumenStatus::BadHandle);
+    assert!(last_error().contains("not a live handle"), "{}", last_error());
+    assert_eq!(unsafe { lumen_detector_free(d) }, LumenStatus::BadHandle);
+    // A pointer Lumen never made.
+    let mut bogus = 0u64;
+    assert_eq!(detect((&raw mut bogus).cast(), &state(0.0)).0, LumenStatus::BadHandle);
+
+    // A client given where a detector or a session is wanted (a local client sends nothing
+    // until a session opens, so no daemon is needed).
+    let prefix = format!("lc{}_handles_\0", std::process::id());
+    let mut client = ptr::null_mut();
+    assert_eq!(unsafe { lumen_client_local(prefix.as_ptr().cast(), ptr::null(), &mut client) }, LumenStatus::Ok, "{}", last_error());
+    assert_eq!(detect(client.cast(), &state(0.0)).0, LumenStatus::BadHandle);
+    assert!(last_error().contains("Client handle, not a Detector"), "{}", last_error());
+    let mut number = 0;
+    assert_eq!(unsafe { lumen_session_submit(client.cast(), &mut number) }, LumenStatus::BadHandle);
+    assert_eq!(unsafe { lumen_client_free(client) }, LumenStatus::Ok);
+    lumen_transport::shm::remove_prefix(prefix.trim_end_matches('\0'));
+}
+
+#[test]
+fn a_local_client_is_refused_on_another_thread() {
+    let prefix = format!("lc{}_thread_\0", std::process::id());
+    let mut client = ptr::null_mut();
+    assert_eq!(unsafe { lumen_client_local(prefix.as_ptr().cast(), ptr::null(), &mut client) }, LumenStatus::Ok, "{}", last_error());
+    let address = client as usize;
+    let (status, message) = std::thread::spawn(move || {
+        let mut session = ptr::null_mut();
+        let status = unsafe { lumen_session_open(address as *mut LumenClient, SPEC.as_ptr().cast(), SPEC.len(), &mut session) };
+        assert!(session.is_null());
+        (status, last_error())
+    })
+    .join()
+    .unwrap();
+    assert_eq!(status, LumenStatus::WrongThread);
+    assert!(message.contains("thread that made it"), "{message}");
+    // On its own thread the same call goes through to the transport: no daemon there.
+    let mut session = ptr::null_mut();
+    assert_eq!(unsafe { lumen_session_open(client, SPEC.as_ptr().cast(), SPEC.len(), &mut session) }, LumenStatus::NoDaemon);
+    assert!(last_error().contains("lumen serve"), "{}", last_error());
+    assert_eq!(unsafe { lumen_client_free(client) }, LumenStatus::Ok);
+    lumen_transport::shm::remove_prefix(prefix.trim_end_matches('\0'));
+}
+
+#[test]
+fn a_zenoh_client_names_a_missing_tls_file_and_a_half_identity() {
+    let endpoint = "tls/127.0.0.1:9\0";
+    let missing = "/nonexistent/ca.pem\0";
+    let tls = LumenTls { root_ca: missing.as_ptr().cast(), certificate: ptr::null(), private_key: ptr::null() };
+    let mut client = ptr::dangling_mut();
+    assert_eq!(unsafe { lumen_client_zenoh(endpoint.as_ptr().cast(), &tls, ptr::null(), &mut client) }, LumenStatus::NoDaemon);
+    assert!(client.is_null());
+    assert!(last_error().contains("/nonexistent/ca.pem"), "{}", last_error());
+    let half = LumenTls { root_ca: missing.as_ptr().cast(), certificate: missing.as_ptr().cast(), private_key: ptr::null() };
+    assert_eq!(unsafe { lumen_client_zenoh(endpoint.as_ptr().cast(), &half, ptr::null(), &mut client) }, LumenStatus::NullArgument);
+    assert!(last_error().contains("go together"), "{}", last_error());
+}

@@ -1,18 +1,24 @@
 //! `include/lumen.h` is what cbindgen makes of the source today: regenerated here and compared.
 //! `LUMEN_BLESS=1 cargo test -p lumen-c --test header` rewrites it.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn crate_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The header as cbindgen writes it from this crate and proto's contact record.
+/// The header as cbindgen writes it from this crate, proto's contact record and its headers.
 fn generate() -> String {
     let dir = crate_dir();
     let config = cbindgen::Config::from_file(dir.join("cbindgen.toml")).expect("client/c/cbindgen.toml");
-    let proto_contact = dir.join("../../proto/src/contact.rs");
-    let bindings = cbindgen::Builder::new().with_config(config).with_src(dir.join("src/lib.rs")).with_src(Path::new(&proto_contact)).generate().expect("cbindgen parses the source");
+    let proto = dir.join("../../proto/src");
+    let bindings = cbindgen::Builder::new()
+        .with_config(config)
+        .with_src(dir.join("src/lib.rs"))
+        .with_src(proto.join("contact.rs"))
+        .with_src(proto.join("wire.rs"))
+        .generate()
+        .expect("cbindgen parses the source");
     let mut out = Vec::new();
     bindings.write(&mut out);
     String::from_utf8(out).expect("cbindgen writes UTF-8")

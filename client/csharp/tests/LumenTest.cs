@@ -1,0 +1,127 @@
+// The C# wrapper tested for real (Mono): embedded detection on the straight-tube scene of
+// client/c/examples/straight_tube_scene.h checked against the closed form, and, given a daemon
+// (`local PREFIX` or `zenoh ENDPOINT`), a session through it. Exits non-zero on any mismatch.
+// Built and run by tests/e2e/csharp_client.rs:
+//   mcs -out:LumenTest.exe client/csharp/Lumen.cs client/csharp/tests/LumenTest.cs
+//   LD_LIBRARY_PATH=target/debug mono LumenTest.exe [local PREFIX | zenoh ENDPOINT]
+using System;
+using System.Runtime.InteropServices;
+using Lumen;
+
+static class LumenTest
+{
+    const int Rings = 11, Spokes = 32, Points = 7, Samples = (Points - 1) * 4 + 1;
+    const double TubeR = 10, RodR = 2, Spacing = 10, Tolerance = 1e-3;
+    const string Spec = "{\"bodies\":[" +
+        "{\"name\":\"colon\",\"shape\":{\"tube\":{\"rings\":11,\"spokes\":32}}}," +
+        "{\"name\":\"scope\",\"shape\":{\"rod\":{\"points\":7,\"radius\":[2.0]}}}]," +
+        "\"pairs\":[{\"a\":\"scope\",\"b\":\"colon\",\"kind\":\"interior\"}],\"precision\":4}";
+
+    /// The tube's rings (control point, then spokes relative to it), then the rod's points at
+    /// `offset` along +y from the axis.
+    static float[] State(double offset)
+    {
+        var s = new float[Rings * (Spokes + 1) * 3 + Points * 3];
+        int p = 0;
+        for (int i = 0; i < Rings; i++)
+        {
+            s[p++] = (float)(i * Spacing); s[p++] = 0; s[p++] = 0;
+            for (int k = 0; k < Spokes; k++)
+            {
+                double a = 2 * Math.PI * (k + 0.5) / Spokes;
+                s[p++] = 0; s[p++] = (float)(TubeR * Math.Cos(a)); s[p++] = (float)(TubeR * Math.Sin(a));
+            }
+        }
+        for (int j = 0; j < Points; j++) { s[p++] = (float)(20 + j * Spacing); s[p++] = (float)offset; s[p++] = 0; }
+        return s;
+    }
+
+    /// Mismatches of one frame's contacts against the closed form: the rod's +y side meets the
+    /// 32-gon's apothem, depth = r - (R cos(pi/32) - offset), normal +y.
+    static int Check(Contact[] cs, int count, double offset)
+    {
+        double apothem = TubeR * Math.Cos(Math.PI / Spokes), expected = RodR - (apothem - offset);
+        int bad = count == (expected > 0 ? Samples : 0) ? 0 : 1;
+        for (int i = 0; i < count; i++)
+        {
+            Contact c = cs[i];
+            if (Math.Abs(c.Depth - expected) > Tolerance || Math.Abs(c.Normal.Y - 1) > Tolerance || Math.Abs(c.PointB.Y - apothem) > Tolerance ||
+                c.Sample != i || c.BodyA != 1 || c.BodyB != 0 || c.SpokeB != Spokes - 1 || (c.Flags & Contact.FlagOutside) != 0)
+            {
+                Console.Error.WriteLine("offset {0}: contact {1}: depth {2} (expected {3}) normal {4}", offset, i, c.Depth, expected, c.Normal);
+                bad++;
+            }
+        }
+        return bad;
+    }
+
+    static int Layout()
+    {
+        int bad = Marshal.SizeOf(typeof(Contact)) == 88 ? 0 : 1;
+        string[] fields = { "Sample", "Weight0", "PointA", "PointB", "Normal", "Depth" };
+        int[] offsets = { 8, 32, 48, 60, 72, 84 };
+        for (int i = 0; i < fields.Length; i++)
+            if ((int)Marshal.OffsetOf(typeof(Contact), fields[i]) != offsets[i]) { Console.Error.WriteLine("{0} not at {1}", fields[i], offsets[i]); bad++; }
+        Console.WriteLine("Contact: {0} bytes", Marshal.SizeOf(typeof(Contact)));
+        return bad;
+    }
+
+    static int Embedded()
+    {
+        int bad = 0;
+        using (var detector = new Detector(Spec))
+        {
+            foreach (double offset in new[] { 8.5, 9.0, 0.0 })
+            {
+                int n = detector.Detect(State(offset));
+                Console.WriteLine("embedded: offset {0:F2}: {1} contacts, depth {2:F4}", offset, n, n > 0 ? detector.Contacts[0].Depth : 0);
+                bad += Check(detector.Contacts, n, offset);
+            }
+            try { detector.Detect(new float[3]); bad++; }
+            catch (LumenException e) { Console.WriteLine("short state: {0}: {1}", e.Status, e.Message); bad += e.Status == Status.BadState ? 0 : 1; }
+        }
+        try { new Detector("{\"bodies\":[],\"pairs\":[]}"); bad++; }
+        catch (LumenException e) { Console.WriteLine("empty spec: {0}", e.Status); bad += e.Status == Status.BadSpec ? 0 : 1; }
+        return bad;
+    }
+
+    static int Daemon(Client client)
+    {
+        int bad = 0;
+        using (var session = client.Open(Spec))
+        {
+            Console.WriteLine("session {0}", session.Id);
+            for (int k = 0; k < 20; k++)
+            {
+                double offset = k % 2 == 0 ? 8.5 : 9.0;
+                ulong number = session.Submit(State(offset));
+                Reply reply = session.Receive(2000);
+                bad += reply.Frame == number && reply.Status == FrameStatus.Ok ? 0 : 1;
+                bad += Check(session.Contacts, reply.Count, offset);
+            }
+            float[] poisoned = State(8.5);
+            poisoned[Rings * (Spokes + 1) * 3 + 4] = float.NaN; // the rod's point 1, y
+            session.Submit(poisoned);
+            Reply r = session.Receive(2000);
+            Console.WriteLine("bad frame: {0} body {1} index {2}: {3}", r.Status, r.ErrorBody, r.ErrorIndex, r.Message);
+            bad += r.Status == FrameStatus.NonFinite && r.ErrorBody == 1 && r.ErrorIndex == 1 && r.Count == 0 ? 0 : 1;
+            Console.WriteLine("daemon: 20 frames checked");
+        }
+        try { client.Open("{\"bodies\":[],\"pairs\":[]}"); bad++; }
+        catch (LumenException e) { Console.WriteLine("refused: {0}", e.Status); bad += e.Status == Status.Refused ? 0 : 1; }
+        return bad;
+    }
+
+    static int Main(string[] args)
+    {
+        int bad = Layout() + Embedded();
+        if (args.Length == 2)
+        {
+            using (Client client = args[0] == "local" ? Client.Local(args[1], "LumenTest.cs") : Client.Zenoh(args[1], "LumenTest.cs"))
+                bad += Daemon(client);
+        }
+        if (bad > 0) { Console.Error.WriteLine("{0} mismatches", bad); return 1; }
+        Console.WriteLine("ok");
+        return 0;
+    }
+}
