@@ -56,7 +56,7 @@ impl Detector {
     fn detect<'py>(&mut self, py: Python<'py>, state: PyReadonlyArrayDyn<'py, f32>) -> PyResult<Bound<'py, PyAny>> {
         let state = state.as_slice().map_err(|_| errors::make(py, "BadStateError", "the state must be a C-contiguous float32 array; pass numpy.ascontiguousarray(state, dtype=numpy.float32)", &[]))?;
         let detector = &mut self.detector;
-        let found = py.detach(move || detector.detect(state).map(|c| (c.as_ptr() as usize, c.len())).map_err(|e| e.clone()));
+        let found = py.detach(move || detector.detect(state).map(|c| (c.as_ptr() as usize, c.len())));
         match found {
             Ok((ptr, len)) => {
                 // SAFETY: the contacts live in `self.detector`, which nothing has touched since

@@ -6,6 +6,7 @@ use lumen_proto::session::ErrorCode;
 use lumen_proto::wire::NO_INDEX;
 use lumen_proto::InputError;
 use pyo3::prelude::*;
+use pyo3::BoundObject;
 use pyo3::types::PyDict;
 
 /// An instance of `lumen.errors.<class>` with `message` and the keyword attributes `details`.

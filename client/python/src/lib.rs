@@ -20,7 +20,7 @@ mod reply;
 /// not parse.
 pub(crate) fn spec_from(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<SceneSpec> {
     let text: String = match spec.cast::<PyString>() {
-        Ok(s) => s.to_str()?.to_owned(),
+        Ok(s) => s.extract()?,
         Err(_) => py.import("json")?.getattr("dumps")?.call1((spec,)).map_err(|e| errors::spec(py, format!("not JSON-serialisable ({e})")))?.extract()?,
     };
     serde_json::from_str(&text).map_err(|e| errors::spec(py, e))
@@ -60,7 +60,7 @@ fn now_ns() -> u64 {
 
 #[pymodule]
 #[pyo3(name = "_lumen")]
-fn module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn lumen_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<client::Client>()?;
     m.add_class::<client::Session>()?;
     m.add_class::<client::Observer>()?;

@@ -47,7 +47,7 @@ pub fn contacts_array<'py>(py: Python<'py>, contacts: &[Contact]) -> PyResult<Bo
         // SAFETY: a fresh C-contiguous array of `len` records of 88 bytes (the dtype's itemsize,
         // checked when `lumen` is imported), which nothing else references yet.
         unsafe {
-            let data = (*untyped.as_array_ptr()).data.cast::<u8>();
+            let data = (*untyped.as_array_ptr()).fields.data.cast::<u8>();
             std::ptr::copy_nonoverlapping(contacts.as_ptr().cast::<u8>(), data, std::mem::size_of_val(contacts));
         }
     }

@@ -4,6 +4,7 @@ removed) at teardown."""
 
 from __future__ import annotations
 
+import gc
 import itertools
 import os
 import queue
@@ -125,5 +126,7 @@ def start_daemon(lumen_bin: Path) -> Iterator:
         return d
 
     yield start
+    # Clients kept alive by a traceback cycle (pytest.raises) would keep their iceoryx2 node.
+    gc.collect()
     for d in started:
         d.stop()
