@@ -19,6 +19,7 @@ Starting a daemon needs the `lumen` binary: `--lumen-bin`, else `$LUMEN_BIN`, el
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import signal
 import subprocess
@@ -147,7 +148,8 @@ def main() -> int:
     rings = int(tube_length() // RING_STEP) + 1
     scene = spec(rings)
     tube = tube_state(rings)
-    started = None
+    started = client = session = None
+    transport = "embedded"
     if args.embedded:
         detector = lumen.Detector(scene)
     else:
@@ -162,6 +164,7 @@ def main() -> int:
                 prefix = started.prefix
             client = lumen.Client.local(prefix=prefix, name="insertion.py")
         session = client.open_session(scene)
+        transport = session.transport
         print(f"session {session.id} over {session.transport}: {session.floats} floats per frame")
 
     depth, count, outside, tips = [], [], [], []
@@ -185,6 +188,9 @@ def main() -> int:
         if not args.embedded:
             session.close()
     finally:
+        # Let go of the client (its iceoryx2 node) before the daemon's prefix is cleaned up.
+        client = session = None
+        gc.collect()
         if started is not None:
             started.stop()
 
@@ -202,7 +208,7 @@ def main() -> int:
     twin = ax.twinx()
     twin.plot(frames, count, color="tab:blue", alpha=0.5, label="contacts")
     twin.set_ylabel("contacts", color="tab:blue")
-    ax.set_title(f"Scripted insertion in a {np.degrees(BEND_ANGLE):.0f}-degree bend ({'embedded' if args.embedded else session.transport})")
+    ax.set_title(f"Scripted insertion in a {np.degrees(BEND_ANGLE):.0f}-degree bend ({transport})")
     ax.legend(loc="upper left")
     fig.tight_layout()
     fig.savefig(args.out, dpi=110)
