@@ -148,7 +148,7 @@ def main() -> int:
     rings = int(tube_length() // RING_STEP) + 1
     scene = spec(rings)
     tube = tube_state(rings)
-    started = client = session = None
+    started = client = session = frame = None
     transport = "embedded"
     if args.embedded:
         detector = lumen.Detector(scene)
@@ -189,7 +189,7 @@ def main() -> int:
             session.close()
     finally:
         # Let go of the client (its iceoryx2 node) before the daemon's prefix is cleaned up.
-        client = session = None
+        client = session = frame = None  # a frame array keeps its session alive
         gc.collect()
         if started is not None:
             started.stop()
