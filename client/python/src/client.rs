@@ -378,12 +378,12 @@ impl Observer {
         let observer = self.inner.as_mut().ok_or_else(|| errors::closed(py, "observer"))?;
         enum Seen {
             Frame(lumen_proto::wire::FrameHeader, usize, usize),
-            Reply(lumen_proto::wire::ContactsHeader, usize, usize),
+            Reply(Box<lumen_proto::wire::ContactsHeader>, usize, usize),
         }
         let seen = without_gil(py, || {
             observer.next(seconds(timeout)).map(|o| match o {
                 Observed::Frame { header, state } => Seen::Frame(*header, state.as_ptr() as usize, state.len()),
-                Observed::Contacts(v) => Seen::Reply(*v.header(), v.contacts().as_ptr() as usize, v.contacts().len()),
+                Observed::Contacts(v) => Seen::Reply(Box::new(*v.header()), v.contacts().as_ptr() as usize, v.contacts().len()),
             })
         });
         // SAFETY (both arms): what the observer saw stays in its buffers until its next call;

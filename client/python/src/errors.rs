@@ -6,8 +6,8 @@ use lumen_proto::session::ErrorCode;
 use lumen_proto::wire::NO_INDEX;
 use lumen_proto::InputError;
 use pyo3::prelude::*;
-use pyo3::BoundObject;
 use pyo3::types::PyDict;
+use pyo3::BoundObject;
 
 /// An instance of `lumen.errors.<class>` with `message` and the keyword attributes `details`.
 pub fn make(py: Python<'_>, class: &str, message: &str, details: &[(&str, Py<PyAny>)]) -> PyErr {
