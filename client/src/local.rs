@@ -123,12 +123,23 @@ impl SessionPorts {
     }
 }
 
+/// The ports of a session the daemon lost, with the frame that was being written: kept, not
+/// dropped, until the session is, so memory lent out through [`crate::Session::frame`] (a
+/// foreign binding may hold on to it, as Python's NumPy arrays do) stays mapped. One per
+/// reconnection.
+struct Retired {
+    // The sample first: it is dropped before the publisher it came from.
+    _loan: Option<SampleMut<Svc, [f32], FrameHeader>>,
+    _ports: SessionPorts,
+}
+
 /// A session over iceoryx2 (see [`crate::Session`]).
 pub(crate) struct LocalSession {
     // Samples first: they are dropped before the ports they came from.
     loan: Option<SampleMut<Svc, [f32], FrameHeader>>,
     last: Option<Sample<Svc, [Contact], ContactsHeader>>,
     ports: Option<SessionPorts>,
+    retired: Vec<Retired>,
     control: Control,
     request: ControlRequest,
     pub(crate) info: SessionInfo,
@@ -140,7 +151,7 @@ pub(crate) struct LocalSession {
 impl LocalSession {
     fn new(control: Control, request: ControlRequest, info: SessionInfo, ports: SessionPorts) -> Self {
         let layout = info.layout();
-        Self { loan: None, last: None, ports: Some(ports), control, request, info, layout, frame_no: 0, reconnects: 0 }
+        Self { loan: None, last: None, ports: Some(ports), retired: Vec::new(), control, request, info, layout, frame_no: 0, reconnects: 0 }
     }
 
     /// Reopens the session after the daemon went away, if one answers now.
@@ -172,9 +183,11 @@ impl LocalSession {
     }
 
     fn lose(&mut self) -> Error {
-        self.loan = None;
         self.last = None;
-        self.ports = None;
+        if let Some(ports) = self.ports.take() {
+            self.retired.push(Retired { _loan: self.loan.take(), _ports: ports });
+        }
+        self.loan = None;
         Error::Disconnected
     }
 
