@@ -13,6 +13,7 @@ use crate::samples::RodSamples;
 use crate::section::TubeCache;
 use crate::view::{RodView, TubeView};
 use crate::V3;
+use lumen_proto::state::all_finite;
 use lumen_proto::{BodySpec, Contact, ContactKind, InputError, Method, PairIndex, SceneSpec, Shape, StateLayout, ValidScene};
 
 /// Per-frame figures, for benchmarks and diagnostics.
@@ -224,7 +225,7 @@ impl Detector {
     /// is kept, so the next good frame continues.
     pub fn detect(&mut self, state: &[f32]) -> Result<&[Contact], InputError> {
         self.layout.check(&self.spec.bodies, state)?;
-        Ok(self.run(state))
+        self.run(state)
     }
 
     /// [`Detector::detect`] for a state the caller has already checked with
@@ -236,10 +237,10 @@ impl Detector {
         if state.len() != self.layout.floats {
             return Err(InputError::StateLength { expected: self.layout.floats, got: state.len() });
         }
-        Ok(self.run(state))
+        self.run(state)
     }
 
-    fn run(&mut self, state: &[f32]) -> &[Contact] {
+    fn run(&mut self, state: &[f32]) -> Result<&[Contact], InputError> {
         let Self { spec, layout, pairs, tubes, rods, jobs, contacts, .. } = self;
         let f = FrameCtx { state, layout, bodies: &spec.bodies, origin: V3::new(state[0], state[1], state[2]), x: spec.precision as usize, alpha: spec.alpha, margin: spec.margin };
         for t in tubes.iter_mut() {
@@ -282,6 +283,42 @@ impl Detector {
             }
         }
         self.stats = FrameStats { walked: counters.walked, reacquired: counters.reacquired, candidates: counters.candidates, planes: counters.planes, contacts: self.contacts.len() as u32 };
-        &self.contacts
+        // Nothing non-finite leaves the detector: a contact that came out so refuses the frame.
+        if let Some(c) = self.contacts.iter().find(|c| !finite(c)) {
+            return Err(InputError::NonFiniteResult { body: self.spec.bodies[c.body_a as usize].name.clone(), sample: c.sample as usize });
+        }
+        Ok(&self.contacts)
+    }
+}
+
+/// Whether every float of a contact is finite.
+fn finite(c: &Contact) -> bool {
+    let [w0, w1, w2, w3] = c.weights_b;
+    let ([a0, a1, a2], [b0, b1, b2], [n0, n1, n2]) = (c.point_a, c.point_b, c.normal);
+    all_finite(&[c.param_a, c.param_b, w0, w1, w2, w3, a0, a1, a2, b0, b1, b2, n0, n1, n2, c.depth])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::finite;
+    use lumen_proto::Contact;
+
+    #[test]
+    fn a_contact_with_any_non_finite_float_is_caught() {
+        let good = Contact { normal: [0.0, 1.0, 0.0], depth: 0.5, ..Contact::default() };
+        assert!(finite(&good));
+        let spoil: [fn(&mut Contact); 6] = [
+            |c| c.depth = f32::INFINITY,
+            |c| c.normal[2] = f32::NAN,
+            |c| c.point_a[0] = f32::NEG_INFINITY,
+            |c| c.point_b[1] = f32::NAN,
+            |c| c.weights_b[3] = f32::NAN,
+            |c| c.param_b = f32::INFINITY,
+        ];
+        for s in spoil {
+            let mut c = good;
+            s(&mut c);
+            assert!(!finite(&c), "{c:?}");
+        }
     }
 }

@@ -46,6 +46,12 @@ pub enum InputError {
     NonFinitePoint { body: String, point: usize, value: f32 },
     #[error("body {body:?}: radial vector {spoke} of ring {ring} has a non-finite coordinate ({value})")]
     NonFiniteSpoke { body: String, ring: usize, spoke: usize, value: f32 },
+    #[error("body {body:?}: control point {point} has a coordinate of {value}, beyond the {max:e} the pipeline computes with", max = crate::limits::MAX_COORDINATE)]
+    OutOfRangePoint { body: String, point: usize, value: f32 },
+    #[error("body {body:?}: radial vector {spoke} of ring {ring} has a coordinate of {value}, beyond the {max:e} the pipeline computes with", max = crate::limits::MAX_COORDINATE)]
+    OutOfRangeSpoke { body: String, ring: usize, spoke: usize, value: f32 },
+    #[error("body {body:?}: the contact of sample {sample} came out non-finite (a degenerate configuration near it); the frame is refused rather than answered with it")]
+    NonFiniteResult { body: String, sample: usize },
     #[error("body {body:?}: ring {ring} is not star-shaped about its control point (radial vectors {spoke} and {next} turn backwards)")]
     NotStarShaped { body: String, ring: usize, spoke: usize, next: usize },
 }

@@ -22,3 +22,9 @@ pub const MAX_REFINE: u32 = 4;
 pub const MAX_OTHER_WALLS: usize = 3;
 /// Most `f32` values in one frame's state (64 MiB of floats).
 pub const MAX_STATE_FLOATS: usize = 16 * 1024 * 1024;
+
+/// The largest magnitude a state value may have, in the scene's unit (1e9: a kilometre in
+/// micrometres, a thousand kilometres in millimetres). The pipeline forms products of up to
+/// four coordinates in `f32` (largest finite value about 3.4e38), so values beyond this could
+/// overflow to infinity; frames holding one are refused with [`crate::wire::Status::OutOfRange`].
+pub const MAX_COORDINATE: f32 = 1e9;

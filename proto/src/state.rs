@@ -7,6 +7,7 @@
 //! - a rod of `A` points: `A * 3` floats.
 
 use crate::error::InputError;
+use crate::limits::MAX_COORDINATE;
 use crate::scene::{BodySpec, SceneSpec, Shape};
 
 /// Offsets of one body in the state.
@@ -59,27 +60,47 @@ impl StateLayout {
         Self { bodies, floats: offset }
     }
 
-    /// Checks the length and that every value is finite; the error names body, ring and spoke
-    /// (`bodies`: the spec's bodies this layout was derived from, for their names).
+    /// Checks the length and that every value is finite and within
+    /// [`crate::limits::MAX_COORDINATE`]; the error names body, ring and spoke (`bodies`: the
+    /// spec's bodies this layout was derived from, for their names).
     pub fn check(&self, bodies: &[BodySpec], state: &[f32]) -> Result<(), InputError> {
         if state.len() != self.floats {
             return Err(InputError::StateLength { expected: self.floats, got: state.len() });
         }
         // Fast path: a branch-free pass the compiler vectorises (an early-exit `all` does
         // not); the slow path below only runs to name the culprit.
-        if all_finite(state) {
+        if all_in_range(state) {
             return Ok(());
         }
-        for (b, l) in self.bodies.iter().enumerate() {
-            let data = &state[l.offset..l.offset + l.floats()];
-            if let Some(i) = data.iter().position(|v| !v.is_finite()) {
-                let (point, within) = (i / l.stride(), i % l.stride() / 3);
-                let (body, value) = (bodies[b].name.clone(), data[i]);
-                return Err(if within == 0 { InputError::NonFinitePoint { body, point, value } } else { InputError::NonFiniteSpoke { body, ring: point, spoke: within - 1, value } });
+        // The first non-finite value anywhere, else the first one out of range.
+        for finite_only in [true, false] {
+            for (b, l) in self.bodies.iter().enumerate() {
+                let data = &state[l.offset..l.offset + l.floats()];
+                let bad = |v: &f32| if finite_only { !v.is_finite() } else { v.abs() > MAX_COORDINATE };
+                if let Some(i) = data.iter().position(bad) {
+                    let (point, within) = (i / l.stride(), i % l.stride() / 3);
+                    let (body, value) = (bodies[b].name.clone(), data[i]);
+                    return Err(match (finite_only, within) {
+                        (true, 0) => InputError::NonFinitePoint { body, point, value },
+                        (true, _) => InputError::NonFiniteSpoke { body, ring: point, spoke: within - 1, value },
+                        (false, 0) => InputError::OutOfRangePoint { body, point, value },
+                        (false, _) => InputError::OutOfRangeSpoke { body, ring: point, spoke: within - 1, value },
+                    });
+                }
             }
         }
-        unreachable!("a non-finite value was seen in the state")
+        unreachable!("a value out of range was seen in the state")
     }
+}
+
+/// True when every value is finite with a magnitude of at most [`MAX_COORDINATE`].
+///
+/// For a non-negative `f32` (the sign bit cleared) the order of the bit patterns is the order
+/// of the values, and NaN and infinities sort above every finite value, so one branch-free
+/// maximum over the patterns (which vectorises) answers both questions.
+pub fn all_in_range(values: &[f32]) -> bool {
+    let largest = values.iter().fold(0u32, |m, v| m.max(v.to_bits() & 0x7fff_ffff));
+    largest <= MAX_COORDINATE.to_bits()
 }
 
 /// True when no value is NaN or infinite.

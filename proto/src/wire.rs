@@ -80,6 +80,10 @@ pub enum Status {
     NotStarShaped = 7,
     /// The daemon could not answer this frame (out of shared memory); the session goes on.
     Internal = 8,
+    /// A value's magnitude is beyond `limits::MAX_COORDINATE` (1e9; `error_body`,
+    /// `error_index`, `error_spoke` say where), or a contact came out non-finite (`error_body`
+    /// is the rod, `error_index` its sample): nothing non-finite is ever sent.
+    OutOfRange = 9,
 }
 
 impl Status {
@@ -96,6 +100,7 @@ impl Status {
             6 => NonFinite,
             7 => NotStarShaped,
             8 => Internal,
+            9 => OutOfRange,
             _ => return None,
         })
     }
@@ -373,6 +378,9 @@ impl ContactsHeader {
             InputError::NonFinitePoint { body, point, .. } => (Status::NonFinite, idx(body), *point as u32, NO_INDEX),
             InputError::NonFiniteSpoke { body, ring, spoke, .. } => (Status::NonFinite, idx(body), *ring as u32, *spoke as u32),
             InputError::NotStarShaped { body, ring, spoke, .. } => (Status::NotStarShaped, idx(body), *ring as u32, *spoke as u32),
+            InputError::OutOfRangePoint { body, point, .. } => (Status::OutOfRange, idx(body), *point as u32, NO_INDEX),
+            InputError::OutOfRangeSpoke { body, ring, spoke, .. } => (Status::OutOfRange, idx(body), *ring as u32, *spoke as u32),
+            InputError::NonFiniteResult { body, sample } => (Status::OutOfRange, idx(body), *sample as u32, NO_INDEX),
         };
         self.set_error(status, e);
         self.error_body = body;

@@ -185,6 +185,10 @@ fn a_bad_frame_among_good_ones_gets_an_error_and_the_session_goes_on() {
                 state[(3 * 17 + 1 + 5) * 3 + 1] = f32::NAN; // tube ring 3, spoke 5, y
                 false
             }
+            4 => {
+                state[40 * 17 * 3 + 5 * 3 + 1] = 1e30; // rod point 5, y: finite, but far beyond the range
+                false
+            }
             6 => {
                 state[40 * 17 * 3 + 2 * 3] = f32::INFINITY; // rod point 2, x
                 false
@@ -207,6 +211,11 @@ fn a_bad_frame_among_good_ones_gets_an_error_and_the_session_goes_on() {
                 assert_eq!((h.error_body, h.error_index, h.error_spoke), (0, 3, 5));
                 assert!(h.message().contains("ring 3"), "{}", h.message());
             }
+            4 => {
+                assert_eq!(r.result().unwrap_err().0, Status::OutOfRange);
+                assert_eq!((h.error_body, h.error_index, h.error_spoke, r.contacts().len()), (1, 5, u32::MAX, 0));
+                assert!(h.message().contains("beyond the 1e9"), "{}", h.message());
+            }
             6 => {
                 assert_eq!(r.result().unwrap_err().0, Status::NonFinite);
                 assert_eq!((h.error_body, h.error_index, h.error_spoke), (1, 2, u32::MAX));
@@ -223,8 +232,8 @@ fn a_bad_frame_among_good_ones_gets_an_error_and_the_session_goes_on() {
     }
     // The daemon counts a frame just after sending its reply: wait for the count to settle.
     let counts = || client.status().ok().and_then(|st| st.sessions.first().map(|v| (v.frames, v.bad_frames)));
-    lumen_e2e::eventually(Duration::from_secs(3), || counts() == Some((12, 5)));
-    assert_eq!(counts(), Some((12, 5)));
+    lumen_e2e::eventually(Duration::from_secs(3), || counts() == Some((12, 6)));
+    assert_eq!(counts(), Some((12, 6)));
 }
 
 /// Set `LUMEN_DEBUG_HANG=1` to keep a failing run's daemon alive for a minute (its pid is

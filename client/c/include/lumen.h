@@ -268,6 +268,12 @@ enum LumenFrameStatus
    * The daemon could not answer this frame (out of shared memory); the session goes on.
    */
   LUMEN_FRAME_STATUS_INTERNAL = 8,
+  /**
+   * A value's magnitude is beyond `limits::MAX_COORDINATE` (1e9; `error_body`,
+   * `error_index`, `error_spoke` say where), or a contact came out non-finite (`error_body`
+   * is the rod, `error_index` its sample): nothing non-finite is ever sent.
+   */
+  LUMEN_FRAME_STATUS_OUT_OF_RANGE = 9,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

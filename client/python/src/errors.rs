@@ -64,6 +64,9 @@ pub fn input(py: Python<'_>, e: &InputError, body_index: impl Fn(&str) -> Option
         InputError::NonFinitePoint { body, point, .. } => (Some(body), Some(*point), None),
         InputError::NonFiniteSpoke { body, ring, spoke, .. } => (Some(body), Some(*ring), Some(*spoke)),
         InputError::NotStarShaped { body, ring, spoke, .. } => (Some(body), Some(*ring), Some(*spoke)),
+        InputError::OutOfRangePoint { body, point, .. } => (Some(body), Some(*point), None),
+        InputError::OutOfRangeSpoke { body, ring, spoke, .. } => (Some(body), Some(*ring), Some(*spoke)),
+        InputError::NonFiniteResult { body, sample } => (Some(body), Some(*sample), None),
     };
     let details = [("body", obj(py, body)), ("body_index", obj(py, body.and_then(body_index))), ("index", obj(py, index)), ("spoke", obj(py, spoke))];
     make(py, "BadStateError", &message, &details)

@@ -67,6 +67,7 @@ pub fn status_name(code: u16) -> &'static str {
         Some(Status::NonFinite) => "non_finite",
         Some(Status::NotStarShaped) => "not_star_shaped",
         Some(Status::Internal) => "internal",
+        Some(Status::OutOfRange) => "out_of_range",
         None => "unknown",
     }
 }
