@@ -307,14 +307,8 @@ mod tests {
     fn a_contact_with_any_non_finite_float_is_caught() {
         let good = Contact { normal: [0.0, 1.0, 0.0], depth: 0.5, ..Contact::default() };
         assert!(finite(&good));
-        let spoil: [fn(&mut Contact); 6] = [
-            |c| c.depth = f32::INFINITY,
-            |c| c.normal[2] = f32::NAN,
-            |c| c.point_a[0] = f32::NEG_INFINITY,
-            |c| c.point_b[1] = f32::NAN,
-            |c| c.weights_b[3] = f32::NAN,
-            |c| c.param_b = f32::INFINITY,
-        ];
+        let spoil: [fn(&mut Contact); 6] =
+            [|c| c.depth = f32::INFINITY, |c| c.normal[2] = f32::NAN, |c| c.point_a[0] = f32::NEG_INFINITY, |c| c.point_b[1] = f32::NAN, |c| c.weights_b[3] = f32::NAN, |c| c.param_b = f32::INFINITY];
         for s in spoil {
             let mut c = good;
             s(&mut c);

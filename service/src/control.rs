@@ -9,6 +9,10 @@ use lumen_transport::names::{client_alive_name, contacts_name, frame_name};
 use lumen_transport::shm::ChannelQos;
 use std::sync::Arc;
 
+/// How long a close waits for the session's slot to be free before answering (the session's
+/// thread sees the request within one tick, 100 ms).
+const CLOSE_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// A session accepted by [`open`], to be started by its transport.
 pub struct Plan {
     pub entry: Arc<Entry>,
@@ -47,7 +51,13 @@ pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest
         },
         ControlRequest::Close { session } => match registry.get(session) {
             Some(e) => {
+                // Answered once the slot is free (the session's thread ends at its next tick),
+                // so an open right after the answer finds room.
                 e.close.store(true, std::sync::atomic::Ordering::SeqCst);
+                drop(e);
+                if !registry.wait_gone(session, CLOSE_WAIT) {
+                    tracing::warn!("session {session} still ending {CLOSE_WAIT:?} after its close");
+                }
                 ControlReply::Closed { session }
             }
             None => error(ErrorCode::UnknownSession, format!("no session {session}")),

@@ -6,9 +6,10 @@ use crate::stats::Stats;
 use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
 use lumen_proto::ValidScene;
 use std::collections::BTreeMap;
+use std::hash::{BuildHasher, RandomState};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 /// One open session as the registry sees it.
 #[derive(Debug)]
@@ -28,26 +29,43 @@ pub struct Entry {
 pub struct Registry {
     pub limits: Limits,
     started: Instant,
-    base: u64,
+    /// Keys of the id hash, seeded by the OS.
+    keys: RandomState,
     next: AtomicU64,
     sessions: Mutex<BTreeMap<u64, Arc<Entry>>>,
     shutdown: AtomicBool,
 }
 
 impl Registry {
-    /// An empty registry. Ids start from a random point so that a restarted daemon (even
-    /// within the same second) never hands out an id whose channels an old client may hold.
+    /// An empty registry. Session ids are drawn at random (SipHash of a counter under keys the
+    /// OS seeds), so they can't be guessed from one another, and a restarted daemon never hands
+    /// out an id whose channels an old client may still hold.
     pub fn new(limits: Limits) -> Self {
-        use std::hash::{BuildHasher, Hasher};
-        let mut h = std::collections::hash_map::RandomState::new().build_hasher(); // OS-seeded
-        h.write_u128(SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos()));
-        h.write_u32(std::process::id());
-        Self { limits, started: Instant::now(), base: h.finish(), next: AtomicU64::new(1), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
+        Self { limits, started: Instant::now(), keys: RandomState::new(), next: AtomicU64::new(0), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
     }
 
-    /// A fresh session id: below 2^53, so JSON doubles hold it exactly.
+    /// A fresh random session id: nonzero, not in use, below 2^53 (so JSON doubles hold it
+    /// exactly).
     pub fn next_id(&self) -> u64 {
-        self.base.wrapping_add(self.next.fetch_add(1, Ordering::Relaxed)) & ((1 << 53) - 1)
+        loop {
+            let id = self.keys.hash_one(self.next.fetch_add(1, Ordering::Relaxed)) & ((1 << 53) - 1);
+            if id != 0 && self.get(id).is_none() {
+                return id;
+            }
+        }
+    }
+
+    /// Waits until session `id` has left the registry (its thread ended and its channels are
+    /// gone), at most `limit`; returns whether it did.
+    pub fn wait_gone(&self, id: u64, limit: Duration) -> bool {
+        let end = Instant::now() + limit;
+        while self.get(id).is_some() {
+            if Instant::now() >= end {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        true
     }
 
     /// Whether another session may open.
@@ -179,6 +197,20 @@ mod tests {
         let (a, b) = (r.next_id(), r.next_id());
         assert_ne!(a, b);
         assert!(a < 1 << 53 && b < 1 << 53);
+    }
+
+    #[test]
+    fn one_daemons_ids_are_random_not_consecutive() {
+        let r = Registry::new(Limits::default());
+        let ids: Vec<u64> = (0..1000).map(|_| r.next_id()).collect();
+        assert_eq!(ids.iter().collect::<std::collections::HashSet<_>>().len(), 1000, "distinct");
+        assert!(ids.iter().all(|&id| id != 0 && id < 1 << 53));
+        // Consecutive or nearby ids would make the next one guessable from the last.
+        let near = ids.windows(2).filter(|w| w[0].abs_diff(w[1]) < 1 << 40).count();
+        assert_eq!(near, 0, "ids within 2^40 of the one before");
+        // Spread over the whole range: the top bit of 53 is set for about half of them.
+        let high = ids.iter().filter(|&&id| id >> 52 == 1).count();
+        assert!((400..600).contains(&high), "{high} of 1000 in the upper half");
     }
 
     #[test]

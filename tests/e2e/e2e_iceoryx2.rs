@@ -362,3 +362,17 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     assert!(same_bits(s.contacts(WAIT).unwrap().contacts(), reference.detect(&scene.state(0)).unwrap()));
     lumen_e2e::closed_sessions_reopen(&mut s, &other, &scene, &mut reference);
 }
+
+/// `close` answers once the slot is free: with room for one session, a session closed and
+/// reopened at once is never refused as busy.
+#[test]
+fn a_closed_sessions_slot_is_free_when_the_close_is_answered() {
+    let prefix = unique_prefix("reopen");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &["--max-sessions", "1"]);
+    let client = client(&prefix);
+    let scene = scene();
+    for k in 0..30 {
+        let s = client.open_session(&scene.spec).unwrap_or_else(|e| panic!("cycle {k}: {e}"));
+        s.close().unwrap_or_else(|e| panic!("cycle {k}: {e}"));
+    }
+}

@@ -321,3 +321,15 @@ fn a_tls_endpoint_without_a_certificate_is_refused_at_start() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("certificate"), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `close` answers once the slot is free, over zenoh too.
+#[test]
+fn a_closed_sessions_slot_is_free_when_the_close_is_answered() {
+    let daemon = Daemon::start(Path::new(LUMEN), &unique_prefix("zreopen"), Some(free_port()), &["--max-sessions", "1"]);
+    let client = Client::zenoh(&daemon.endpoint()).unwrap();
+    let scene = TestScene::new(40, 16, 24);
+    for k in 0..20 {
+        let s = client.open_session(&scene.spec).unwrap_or_else(|e| panic!("cycle {k}: {e}"));
+        s.close().unwrap_or_else(|e| panic!("cycle {k}: {e}"));
+    }
+}
