@@ -76,7 +76,8 @@ pub enum Status {
     BadCounts = 5,
     /// A coordinate is NaN or infinite; `error_body`, `error_index`, `error_spoke` say where.
     NonFinite = 6,
-    /// A tube ring is not star-shaped; `error_body`, `error_index`, `error_spoke` say where.
+    /// Reserved, never sent: a tube ring that is not star-shaped is still answered, its
+    /// contacts flagged `FLAG_NOT_STAR`.
     NotStarShaped = 7,
     /// The daemon could not answer this frame (out of shared memory); the session goes on.
     Internal = 8,
