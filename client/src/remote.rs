@@ -7,7 +7,7 @@ use crate::{now_ns, Error, Observed};
 use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport};
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
-use lumen_transport::names::{client_alive_name, CONTROL, DAEMON_ALIVE};
+use lumen_transport::names::{client_alive_name, observe_contacts_name, observe_frame_name, CONTROL, DAEMON_ALIVE};
 use lumen_transport::net::{config, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
 use std::time::{Duration, Instant};
 use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
@@ -48,12 +48,15 @@ impl ZenohClient {
     }
 
     pub(crate) fn observe(&self, info: SessionInfo) -> Result<ZenohObserver, Error> {
-        let both = format!("{}/*", info.frame.rsplit_once('/').map_or(info.frame.as_str(), |(root, _)| root));
+        // The daemon's droppable repeats of the session's frames and replies, not the client's
+        // own keys: a slow observer then loses samples instead of slowing the session.
+        let both = format!("{}/*", observe_frame_name(info.session).rsplit_once('/').expect("a key with a root").0);
         let sub = self.session.declare_subscriber(both).with(RingChannel::new(OBSERVER_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
         // The session lives while its client's liveliness token and the daemon's do.
         let watch = |key: &str| self.session.liveliness().declare_subscriber(key).wait().map_err(|e| Error::zenoh(&format!("watching {key}"), e));
         let ended = [watch(&info.alive)?, watch(DAEMON_ALIVE)?];
-        Ok(ZenohObserver { sub, ended, info, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
+        let (frame_key, contacts_key) = (observe_frame_name(info.session), observe_contacts_name(info.session));
+        Ok(ZenohObserver { sub, ended, info, frame_key, contacts_key, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
     }
 }
 
@@ -279,6 +282,9 @@ pub(crate) struct ZenohObserver {
     /// Liveliness of the session's client and of the daemon: a `Delete` ends the session.
     ended: [Subscriber<FifoChannelHandler<Sample>>; 2],
     pub(crate) info: SessionInfo,
+    /// The keys the daemon repeats the session's frames and replies on for observers.
+    frame_key: String,
+    contacts_key: String,
     frame_header: FrameHeader,
     state: Vec<f32>,
     header: ContactsHeader,
@@ -303,11 +309,11 @@ impl ZenohObserver {
                 continue;
             };
             let bytes = sample.payload().to_bytes();
-            if sample.key_expr().as_str() == self.info.contacts {
+            if sample.key_expr().as_str() == self.contacts_key {
                 self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
                 return Ok(Observed::Contacts(ContactsView { header: &self.header, contacts: &self.contacts }));
             }
-            if sample.key_expr().as_str() == self.info.frame {
+            if sample.key_expr().as_str() == self.frame_key {
                 let Ok(h) = FrameHeader::read(&bytes) else { continue };
                 let body = &bytes[FRAME_HEADER_BYTES..];
                 self.state.clear();

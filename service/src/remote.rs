@@ -9,13 +9,15 @@ use crate::registry::Registry;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
+use lumen_transport::names::{observe_contacts_name, observe_frame_name};
 use lumen_transport::names::{CONTROL, DAEMON_ALIVE};
-use lumen_transport::net::{config, set, CONGESTION, FRAME_QUEUE};
+use lumen_transport::net::{config, set, CONGESTION, FRAME_QUEUE, OBSERVER_CONGESTION};
 use lumen_transport::TransportError;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
+use zenoh::bytes::ZBytes;
 use zenoh::handlers::RingChannel;
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
@@ -105,6 +107,9 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     let frames = z.declare_subscriber(info.frame.clone()).with(RingChannel::new(FRAME_QUEUE)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
     let publisher = z.declare_publisher(info.contacts.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
     let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
+    // Observers get the frames and replies repeated on keys of their own, droppable.
+    let observe = |key: String| z.declare_publisher(key.clone()).congestion_control(OBSERVER_CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {key}"), e));
+    let (observe_frames, observe_contacts) = (observe(observe_frame_name(info.session))?, observe(observe_contacts_name(info.session))?);
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout().floats);
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
@@ -123,10 +128,14 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
                 let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));
                 encode_contacts(&mut reply, contacts, &mut out);
                 let service = received.elapsed();
-                if let Err(e) = publisher.put(out).wait() {
+                let out = ZBytes::from(out);
+                if let Err(e) = publisher.put(out.clone()).wait() {
                     tracing::warn!("session {}: publishing contacts: {e}", engine.id);
                 }
                 engine.record(&reply, service);
+                // For observers, after the client's reply (shared buffers, no copies).
+                let _ = observe_frames.put(sample.payload().clone()).wait();
+                let _ = observe_contacts.put(out).wait();
             }
             Ok(None) => {}
             Err(e) => return Err(TransportError::zenoh("receiving a frame", e).into()),

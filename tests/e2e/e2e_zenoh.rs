@@ -22,6 +22,63 @@ fn child_role() {
     }
 }
 
+/// This test binary re-run as a deliberately slow observer of session `LUMEN_E2E_OBSERVE`: a
+/// raw zenoh subscriber to the session's observer keys whose callback sleeps half a second per
+/// sample (it blocks its zenoh session's receiving thread, so its link backs up), as a careless
+/// VR front-end might. Prints `observing`, then `saw N` per sample; ends when stdin closes.
+#[test]
+fn slow_observer_role() {
+    let (Ok(endpoint), Ok(session)) = (std::env::var("LUMEN_E2E_ENDPOINT"), std::env::var("LUMEN_E2E_OBSERVE")) else { return };
+    let config = lumen_transport::net::config("client", &[], &[endpoint]).unwrap();
+    let z = zenoh::open(config).wait().unwrap();
+    let key = format!("lumen/session/{session}/observe/*");
+    let seen = std::sync::atomic::AtomicUsize::new(0);
+    let _sub = z
+        .declare_subscriber(key)
+        .callback(move |_| {
+            let n = seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            println!("saw {n}");
+            std::thread::sleep(Duration::from_millis(500));
+        })
+        .wait()
+        .unwrap();
+    println!("\nobserving"); // on a line of its own: the test harness left "test ... " open
+    let _ = std::io::Read::read_to_end(&mut std::io::stdin(), &mut Vec::new());
+}
+
+/// Frames per second of `frames` round trips of session `s`.
+fn frame_rate(s: &mut lumen_client::Session, scene: &TestScene, frames: u64) -> f64 {
+    let start = std::time::Instant::now();
+    for k in 0..frames {
+        s.frame().unwrap().copy_from_slice(&scene.state(k));
+        s.submit().unwrap();
+        s.contacts(WAIT).unwrap();
+    }
+    frames as f64 / start.elapsed().as_secs_f64()
+}
+
+#[test]
+fn a_slow_observer_does_not_slow_the_client() {
+    let d = daemon("zslow");
+    let scene = TestScene::new(40, 16, 24);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    frame_rate(&mut s, &scene, 50); // warm-up
+    let alone = frame_rate(&mut s, &scene, 400);
+    let id = s.id().to_string();
+    let endpoint = d.endpoint();
+    let mut observer = lumen_e2e::spawn_client_role("slow_observer_role", &[("LUMEN_E2E_ENDPOINT", endpoint.as_str()), ("LUMEN_E2E_OBSERVE", id.as_str())]);
+    assert!(observer.line_starting("observing", Duration::from_secs(20)).is_some(), "the observer did not start");
+    std::thread::sleep(Duration::from_millis(300)); // its subscription reaches the daemon
+    let watched = frame_rate(&mut s, &scene, 400);
+    assert!(observer.line_starting("saw 2", Duration::from_secs(5)).is_some(), "the slow observer saw nothing: the test proves nothing");
+    eprintln!("client frame rate: {alone:.0}/s alone, {watched:.0}/s beside an observer that sleeps 0.5 s per sample");
+    // Before observers had droppable keys of their own: 485 frames/s fell to 15.
+    assert!(watched > 0.5 * alone, "{watched:.0}/s beside the slow observer, {alone:.0}/s alone");
+    observer.close_stdin();
+    assert!(observer.wait_exit(Duration::from_secs(10)).is_some());
+}
+
 #[test]
 fn a_killed_zenoh_client_is_noticed_within_a_second_and_others_go_on() {
     let d = daemon("zk9");

@@ -24,6 +24,17 @@ pub fn client_alive_name(id: u64) -> String {
     format!("{ROOT}/session/{id}/client")
 }
 
+/// Zenoh key on which the daemon repeats session `id`'s frames for observers, droppable: an
+/// observer that cannot keep up loses samples rather than slowing the session.
+pub fn observe_frame_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/observe/frame")
+}
+
+/// Zenoh key on which the daemon repeats session `id`'s replies for observers, droppable.
+pub fn observe_contacts_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/observe/contacts")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -33,6 +44,8 @@ mod tests {
         assert_eq!(frame_name(42), "lumen/session/42/frame");
         assert_eq!(contacts_name(42), "lumen/session/42/contacts");
         assert_eq!(client_alive_name(42), "lumen/session/42/client");
+        assert_eq!(observe_frame_name(42), "lumen/session/42/observe/frame");
+        assert_eq!(observe_contacts_name(42), "lumen/session/42/observe/contacts");
         assert_eq!((CONTROL, DAEMON_ALIVE), ("lumen/control", "lumen/daemon"));
     }
 }

@@ -13,6 +13,9 @@ pub const OBSERVER_QUEUE: usize = 16;
 /// Frames and replies block rather than drop when the link is congested: a frame lost on the
 /// way would leave its client waiting for a reply that never comes.
 pub const CONGESTION: CongestionControl = CongestionControl::Block;
+/// What the daemon repeats for observers (`names::observe_*`) is dropped, not queued, when an
+/// observer's link is congested: a slow observer never holds up the session it watches.
+pub const OBSERVER_CONGESTION: CongestionControl = CongestionControl::Drop;
 
 /// A zenoh configuration: `mode` (`client`, `peer` or `router`), no multicast scouting or
 /// gossip, the given endpoints to listen on and to connect to.
