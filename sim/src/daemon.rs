@@ -68,11 +68,26 @@ impl From<lumen_client::Error> for DaemonSourceError {
     }
 }
 
+/// How long [`DaemonSource`] keeps writing its frame again while the daemon is away, by
+/// default: long enough for a restart (a zenoh link comes back within seconds of it).
+pub const DEFAULT_RESUME_WITHIN: Duration = Duration::from_secs(30);
+
+/// Pause between tries while the daemon is away.
+const RETRY_PAUSE: Duration = Duration::from_millis(20);
+
 /// Contacts from a daemon session (see the module docs).
+///
+/// It rides out a daemon restart: while the daemon is away (the client says `Disconnected`, or
+/// a reply does not come), the world writes the frame again every 20 ms, and the session
+/// reopens by itself once a daemon answers, for up to [`DaemonSource::resume_within`].
 pub struct DaemonSource {
     session: Session,
     /// How long to wait for each reply.
     pub timeout: Duration,
+    /// How long to keep retrying while the daemon is away before giving up.
+    pub resume_within: Duration,
+    /// Since when the daemon has been away, if it is.
+    lost_since: Option<Instant>,
     round_trips_us: Vec<f32>,
     detect_us: f64,
 }
@@ -81,7 +96,7 @@ impl DaemonSource {
     /// A source over `session`, which must have been opened for the world's scene spec
     /// ([`crate::setup::scene_spec`]).
     pub fn new(session: Session) -> Self {
-        Self { session, timeout: DEFAULT_TIMEOUT, round_trips_us: Vec::new(), detect_us: 0.0 }
+        Self { session, timeout: DEFAULT_TIMEOUT, resume_within: DEFAULT_RESUME_WITHIN, lost_since: None, round_trips_us: Vec::new(), detect_us: 0.0 }
     }
 
     /// The session.
@@ -127,6 +142,7 @@ impl DaemonSource {
             out.clear();
             out.extend_from_slice(reply.contacts());
             self.round_trips_us.push(rtt.as_secs_f32() * 1e6);
+            self.lost_since = None;
             return Ok(());
         }
     }
@@ -139,5 +155,19 @@ impl ContactSource for DaemonSource {
 
     fn detect(&mut self, out: &mut Vec<Contact>) -> Result<(), SourceError> {
         Ok(self.exchange(out)?)
+    }
+
+    fn retry_after(&mut self, error: &SourceError) -> Option<Duration> {
+        use lumen_client::Error::{Disconnected, Timeout};
+        let away = matches!(error.downcast_ref::<DaemonSourceError>(), Some(DaemonSourceError::Client(Disconnected | Timeout(_))));
+        if !away {
+            return None;
+        }
+        let since = *self.lost_since.get_or_insert_with(Instant::now);
+        if since.elapsed() < self.resume_within {
+            Some(RETRY_PAUSE)
+        } else {
+            None
+        }
     }
 }

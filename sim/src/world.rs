@@ -66,6 +66,13 @@ pub trait ContactSource {
     fn frame(&mut self) -> Result<(&mut [f32], bool), SourceError>;
     /// Detects on the frame just written; replaces `out` with its contacts.
     fn detect(&mut self, out: &mut Vec<Contact>) -> Result<(), SourceError>;
+    /// After `error` from [`ContactSource::frame`] or [`ContactSource::detect`]: how long to
+    /// wait before writing the frame again and retrying (a daemon that went away and may come
+    /// back), or `None` to give up with the error. The default gives up.
+    fn retry_after(&mut self, error: &SourceError) -> Option<std::time::Duration> {
+        let _ = error;
+        None
+    }
 }
 
 /// Detection in this process, with Lumen's default method.
@@ -548,8 +555,22 @@ impl<S: ContactSource> World<S> {
         impulse / h / p.dt_s * 1e-3
     }
 
-    /// Writes the frame's state into the source's buffer and detects.
+    /// Writes the frame's state into the source's buffer and detects, writing it again as long
+    /// as the source asks to retry (see [`ContactSource::retry_after`]).
     fn write_and_detect(&mut self) -> Result<(), SimError> {
+        loop {
+            match self.try_write_and_detect() {
+                Err(SimError::Source(e)) => match self.source.retry_after(&e) {
+                    Some(pause) => std::thread::sleep(pause),
+                    None => return Err(SimError::Source(e)),
+                },
+                done => return done,
+            }
+        }
+    }
+
+    /// Writes the frame's state into the source's buffer and detects, once.
+    fn try_write_and_detect(&mut self) -> Result<(), SimError> {
         let (buf, kept) = self.source.frame().map_err(SimError::Source)?;
         if buf.len() != self.scene.layout().floats {
             return Err(SimError::FrameSize { expected: self.scene.layout().floats, got: buf.len() });

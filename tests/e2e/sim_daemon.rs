@@ -75,3 +75,40 @@ fn lumen_sim_without_a_daemon_says_to_start_one() {
     lumen_transport::shm::remove_prefix(&prefix);
     assert!(lumen_e2e::shm_files(&prefix).is_empty());
 }
+
+/// Runs `lumen sim` against a daemon, kills the daemon (`kill -9`) once the run is under way and
+/// starts another on the same prefix and port: the run must finish all its frames, exit 0, and
+/// report no error.
+fn lumen_sim_rides_out_a_restart(tag: &str, zenoh: bool) {
+    const RUN: u64 = 400;
+    let prefix = unique_prefix(tag);
+    let port = zenoh.then(lumen_e2e::free_port);
+    let mut daemon = Daemon::start(LUMEN.as_ref(), &prefix, port, &[]);
+    let mut cmd = Command::new(LUMEN);
+    cmd.args(["sim", "--frames", &RUN.to_string(), "--progress-every", "50", "--prefix", &prefix]);
+    if zenoh {
+        cmd.args(["--zenoh", &daemon.endpoint()]);
+    }
+    let mut sim = lumen_e2e::ChildProcess::spawn(cmd);
+    let progress = sim.line_starting(r#"{"type":"progress""#, std::time::Duration::from_secs(120));
+    assert!(progress.is_some(), "lumen sim did not get going");
+    assert!(sim.child.try_wait().expect("polling lumen sim").is_none(), "lumen sim ended before the daemon was killed: the test proves nothing");
+    daemon.process.kill9();
+    let _restarted = Daemon::start(LUMEN.as_ref(), &prefix, port, &[]);
+    let status = sim.wait_exit(std::time::Duration::from_secs(240)).expect("lumen sim finished");
+    let summary = sim.line_starting(r#"{"type":"summary""#, std::time::Duration::from_secs(5)).expect("a summary line");
+    assert!(status.success(), "lumen sim failed ({status}) across the restart: {summary}");
+    let v: serde_json::Value = serde_json::from_str(&summary).expect("JSON");
+    assert_eq!(v["error"], serde_json::Value::Null, "{summary}");
+    assert_eq!(v["frames"].as_u64(), Some(RUN), "every frame run: {summary}");
+}
+
+#[test]
+fn lumen_sim_rides_out_a_daemon_restart_over_iceoryx2() {
+    lumen_sim_rides_out_a_restart("simrestart", false);
+}
+
+#[test]
+fn lumen_sim_rides_out_a_daemon_restart_over_zenoh() {
+    lumen_sim_rides_out_a_restart("zsimrestart", true);
+}
