@@ -261,7 +261,8 @@ enum LumenFrameStatus
    */
   LUMEN_FRAME_STATUS_NON_FINITE = 6,
   /**
-   * A tube ring is not star-shaped; `error_body`, `error_index`, `error_spoke` say where.
+   * Reserved, never sent: a tube ring that is not star-shaped is still answered, its
+   * contacts flagged `FLAG_NOT_STAR`.
    */
   LUMEN_FRAME_STATUS_NOT_STAR_SHAPED = 7,
   /**
