@@ -30,6 +30,9 @@ pub enum CliError {
     /// Reading a surface or a midline, or building a tube.
     #[error(transparent)]
     Import(#[from] lumen_import::ImportError),
+    /// `lumen import` built a model that is not a usable tube (the problems were printed).
+    #[error("{}: not a usable tube ({problems} problem(s) above); nothing written (--force writes it anyway)", mesh.display())]
+    ImportRefused { mesh: PathBuf, problems: usize },
     /// The colon of `lumen sim` could not be had.
     #[error("the {scene} colon: {source}")]
     Colon { scene: &'static str, source: lumen_scene::gca::GcaError },

@@ -111,8 +111,52 @@ pub struct ImportReport {
     pub tight_bends: usize,
     /// Radial vector lengths after inflation: min, 5th percentile, median, 95th, max.
     pub radius_mm: [f64; 5],
-    /// Whether the surface is closed and oriented (`from_outside` can be told apart).
+    /// Whether at least 80% of first hits agree on which way the surface faces, so hits from
+    /// outside can be told apart (`from_outside`).
     pub oriented: bool,
+    /// Whether the surface faced its lumen (normals pointing at the midline) and was read
+    /// flipped.
+    pub flipped: bool,
+    /// Fraction of first hits on triangles facing the majority's way (0.5 to 1).
+    pub orientation_agreement: f64,
+    /// Rays whose first wall has a second wall right behind it (within 2% of the hit's distance)
+    /// or is a triangle written twice: a duplicated or double surface. Not repaired.
+    pub doubled: usize,
+    /// How far the midline's bounding box reaches beyond the surface's, in the surface's unit
+    /// (0 when inside): a midline in other units than its surface reaches far out.
+    pub midline_beyond_surface: f64,
+    /// The surface's bounding-box diagonal, in its unit.
+    pub surface_diagonal: f64,
+    /// Rings where the midline's points turn back on themselves (by more than 150 degrees from
+    /// one point to the next): points out of order, or a midline stitched from pieces.
+    pub turns_back: Vec<usize>,
+    /// The wall (before inflation) against the surface, in its unit.
+    pub fidelity: crate::fidelity::Fidelity,
+    /// Every ring's counts, in order along the midline, for naming where a problem lies.
+    pub ring_tallies: Vec<RingTally>,
+}
+
+/// One ring's rays by what became of them.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RingTally {
+    /// Rays repaired, whatever the cause.
+    pub repaired: u16,
+    /// Rays that hit nothing.
+    pub missed: u16,
+    /// Rays whose first hit was a wall seen from outside.
+    pub from_outside: u16,
+    /// Rays whose first wall was doubled.
+    pub doubled: u16,
+    /// Whether the ring borrowed its median from neighbouring rings.
+    pub borrowed: bool,
+}
+
+impl RingTally {
+    /// Whether the ring's midline point lies outside the surface: at least half its rays miss
+    /// the surface or meet it from outside.
+    pub fn outside(&self, spokes: usize) -> bool {
+        2 * (self.missed as usize + self.from_outside as usize) >= spokes
+    }
 }
 
 impl ImportReport {
@@ -148,7 +192,11 @@ impl fmt::Display for ImportReport {
             self.missed,
             self.neighbouring_loop,
             self.outliers,
-            if self.oriented { format!(", {} hit a wall from outside", self.from_outside) } else { " (the surface is not closed and oriented, so hits from outside were not checked)".to_string() },
+            if self.oriented {
+                format!(", {} hit a wall from outside", self.from_outside)
+            } else {
+                format!(" (the surface faces both ways: {:.0}% of first hits agree on its side, so hits from outside were not told apart)", 100.0 * self.orientation_agreement)
+            },
             self.interpolated,
             self.clamped,
             self.rings_borrowed,
@@ -158,8 +206,47 @@ impl fmt::Display for ImportReport {
             r95,
             r100,
             self.tight_bends
-        )
+        )?;
+        let w = &self.fidelity;
+        write!(f, " Wall (before inflation) to surface, p50 / p99 / max: {:.2} / {:.2} / {:.2} mm over {} points.", w.p50, w.p99, w.max, w.samples)?;
+        if self.flipped {
+            write!(f, " The surface's normals faced its lumen; it was read flipped.")?;
+        }
+        if self.doubled > 0 {
+            write!(f, " {} rays met a doubled wall (a second surface right behind the first, or a triangle written twice).", self.doubled)?;
+        }
+        Ok(())
     }
+}
+
+/// A ray's first wall hit: its distance, whether the triangle's normal faces away from the ray's
+/// origin, and whether a second wall lies right behind it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FirstHit {
+    t: f64,
+    away: bool,
+    doubled: bool,
+}
+
+/// Triangles whose three corners another triangle has too (in any order or winding): a surface
+/// written twice over itself.
+fn duplicated_triangles(mesh: &Mesh) -> std::collections::HashSet<u32> {
+    let key = |t: &[u32; 3]| {
+        let mut c = t.map(|i| mesh.vertices[i as usize].map(f32::to_bits));
+        c.sort();
+        c
+    };
+    let mut first: HashMap<[[u32; 3]; 3], u32> = HashMap::with_capacity(mesh.triangles.len());
+    let mut dup = std::collections::HashSet::new();
+    for (n, t) in mesh.triangles.iter().enumerate() {
+        if let Some(&m) = first.get(&key(t)) {
+            dup.insert(m);
+            dup.insert(n as u32);
+        } else {
+            first.insert(key(t), n as u32);
+        }
+    }
+    dup
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -239,6 +326,14 @@ const JUMP_MM: f64 = 2.0;
 /// than `t`, whatever its arc; below that the rings cross inside the lumen anyway.
 const NEIGHBOUR_ARC_MM: f64 = 20.0;
 const NEIGHBOUR_RATIO: f64 = 0.75;
+/// A second wall behind a ray's first hit, closer than this fraction of the hit's distance,
+/// makes the hit a doubled wall.
+const DOUBLE_WALL: f64 = 0.02;
+/// Cosine of the turn (150 degrees) between consecutive midline steps that counts as turning
+/// back.
+const TURN_BACK_COS: f64 = -0.866;
+/// The surface is oriented when at least this fraction of first hits agree on which way it faces.
+const ORIENTED_AGREEMENT: f64 = 0.8;
 
 /// Builds a tube from a closed triangle surface and a midline inside it (see the module docs
 /// of [`crate`]): rings every `ring_spacing` along the (lightly smoothed) midline, a
@@ -267,6 +362,16 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     }
     let raw_arc = arc_lengths(&raw);
     let length = raw_arc[raw_arc.len() - 1];
+    let mut turns_back: Vec<usize> = Vec::new();
+    for j in 1..raw.len() - 1 {
+        let (a, c) = (raw[j] - raw[j - 1], raw[j + 1] - raw[j]);
+        if a.dot(&c) < TURN_BACK_COS * a.norm() * c.norm() {
+            let ring = (raw_arc[j] / spacing).round() as usize;
+            if turns_back.last() != Some(&ring) {
+                turns_back.push(ring);
+            }
+        }
+    }
     let rings = (length / spacing + 1e-9).floor() as usize + 1;
     if !(2..=65_536).contains(&rings) {
         return Err(ImportError::Invalid(format!("{rings} rings ({length:.1} mm of midline every {spacing} mm); 2 to 65,536 are allowed")));
@@ -284,18 +389,14 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&i| i >= nv)) {
         return Err(ImportError::Invalid(format!("triangle {t:?} refers to a vertex beyond the {nv} given")));
     }
+    let duplicates = duplicated_triangles(mesh);
     let trimesh = TriMesh::new(verts, mesh.triangles.clone()).map_err(|e| ImportError::Invalid(format!("surface: {e:?}")))?;
-    let volume = mesh.signed_volume();
     let (lo, hi) = mesh.bounds();
     let diag = (0..3).map(|d| (hi[d] as f64 - lo[d] as f64).powi(2)).sum::<f64>().sqrt();
-    let scale = diag.max(1e-6);
-    // A closed oriented surface has a clearly non-zero signed volume; its sign says which way
-    // the triangles face.
-    let oriented = volume.abs() > 1e-6 * scale * scale * scale;
-    let outward = if volume >= 0.0 { 1.0 } else { -1.0 };
     let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
 
-    // Cast.
+    // Cast: every ray's first hit, which way that triangle faces, and whether a second wall lies
+    // right behind it.
     let dirs: Vec<Vec<V3d>> = (0..rings)
         .map(|i| {
             let bn = tan[i].cross(&nrm[i]);
@@ -307,7 +408,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
                 .collect()
         })
         .collect();
-    let mut cls = vec![Ray1::Missed; rings * b];
+    let mut hits: Vec<Option<FirstHit>> = vec![None; rings * b];
     for i in 0..rings {
         let o = pts[i];
         for k in 0..b {
@@ -319,11 +420,34 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
             let t = hit.time_of_impact as f64;
             let tri = trimesh.triangle(hit.subshape);
             let n = (tri.b - tri.a).cross(tri.c - tri.a);
-            let facing = (n.x as f64 * d.x + n.y as f64 * d.y + n.z as f64 * d.z) * outward;
-            cls[i * b + k] = if oriented && facing < 0.0 {
+            let away = n.x as f64 * d.x + n.y as f64 * d.y + n.z as f64 * d.z > 0.0;
+            // A second wall within DOUBLE_WALL of the first, behind it: a duplicated or
+            // double-sided surface.
+            let h = o + d * t;
+            let behind = h + d * (1e-4 * t.max(1e-9));
+            let again = Ray::new(Vector::new(behind.x as f32, behind.y as f32, behind.z as f32), ray.dir);
+            let doubled = trimesh.cast_local_ray(&again, (DOUBLE_WALL * t) as f32, false).is_some() || duplicates.contains(&hit.subshape);
+            hits[i * b + k] = Some(FirstHit { t, away, doubled });
+        }
+    }
+    // Orientation relative to the midline: from inside the lumen the wall's outward normal faces
+    // away from the ray's origin. The majority of first hits says which way the surface faces;
+    // the rays that see the other side hit a wall from outside, unless the surface faces both
+    // ways too often to tell.
+    let seen = hits.iter().flatten().count();
+    let away = hits.iter().flatten().filter(|h| h.away).count();
+    let flipped = 2 * away < seen;
+    let agree = if seen == 0 { 0.0 } else { away.max(seen - away) as f64 / seen as f64 };
+    let oriented = seen > 0 && agree >= ORIENTED_AGREEMENT;
+    let mut cls = vec![Ray1::Missed; rings * b];
+    for i in 0..rings {
+        for k in 0..b {
+            let Some(hit) = hits[i * b + k] else { continue };
+            let t = hit.t;
+            cls[i * b + k] = if oriented && hit.away == flipped {
                 Ray1::Outside
             } else {
-                let h = o + d * t;
+                let h = pts[i] + dirs[i][k] * t;
                 let reach = NEIGHBOUR_ARC_MM.max(t);
                 let r = NEIGHBOUR_RATIO * t;
                 let foreign = grid.near(&h, r, |j| {
@@ -395,7 +519,30 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
             medians[i] = median(&mut v);
         }
     }
-    let mut report = ImportReport { rings, spokes: b, centerline_mm: length, inflate, rays: rings * b, oriented, ..Default::default() };
+    let doubled = hits.iter().flatten().filter(|h| h.doubled).count();
+    let (mlo, mhi) = (centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))), centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))));
+    let midline_beyond_surface = (0..3).map(|d| (lo[d] - mlo[d]).max(mhi[d] - hi[d]).max(0.0) as f64).fold(0.0, f64::max);
+    let mut report = ImportReport {
+        rings,
+        spokes: b,
+        centerline_mm: length,
+        inflate,
+        rays: rings * b,
+        oriented,
+        flipped: oriented && flipped,
+        orientation_agreement: agree,
+        doubled,
+        midline_beyond_surface,
+        surface_diagonal: diag,
+        turns_back,
+        ring_tallies: vec![RingTally::default(); rings],
+        ..Default::default()
+    };
+    for (n, h) in hits.iter().enumerate() {
+        if h.is_some_and(|h| h.doubled) {
+            report.ring_tallies[n / b].doubled += 1;
+        }
+    }
     // Rings without enough hits borrow the nearest good median.
     let mut all: Vec<f64> = cls.iter().filter_map(|c| if let Ray1::Hit(t) = c { Some(*t) } else { None }).collect();
     let global = median(&mut all);
@@ -403,6 +550,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     for i in 0..rings {
         if good[i].is_nan() {
             report.rings_borrowed += 1;
+            report.ring_tallies[i].borrowed = true;
             let mut found = f64::NAN;
             for d in 1..rings {
                 let cands = [i.checked_sub(d), (i + d < rings).then_some(i + d)];
@@ -435,9 +583,17 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
                     t
                 }
                 c => {
+                    let tally = &mut report.ring_tallies[i];
+                    tally.repaired += 1;
                     match c {
-                        Ray1::Missed => report.missed += 1,
-                        Ray1::Outside => report.from_outside += 1,
+                        Ray1::Missed => {
+                            report.missed += 1;
+                            tally.missed += 1;
+                        }
+                        Ray1::Outside => {
+                            report.from_outside += 1;
+                            tally.from_outside += 1;
+                        }
                         Ray1::Neighbour => report.neighbouring_loop += 1,
                         _ => report.outliers += 1,
                     }
@@ -483,5 +639,6 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     sorted.sort_by(f64::total_cmp);
     report.radius_mm = [0.0, 0.05, 0.5, 0.95, 1.0].map(|q| quantile(&sorted, q));
     let tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
+    report.fidelity = crate::fidelity::wall_to_surface(&tube, params.inflate, &trimesh);
     Ok((tube, report))
 }

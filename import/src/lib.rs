@@ -30,11 +30,16 @@
 
 pub mod build;
 pub mod centerline;
+pub mod fidelity;
 pub mod geom;
 pub mod mesh;
 pub mod probe;
+pub mod quality;
+pub mod units;
 
-pub use build::{build_tube, ImportParams, ImportReport, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
+pub use build::{build_tube, ImportParams, ImportReport, RingTally, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
+pub use quality::{assess, Cause, Problem, Thresholds};
+pub use units::Unit;
 pub use centerline::{load_centerline_csv, parse_centerline_csv, Centerline};
 pub use mesh::{load_mesh, parse_obj, parse_stl, Mesh};
 

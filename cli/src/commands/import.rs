@@ -1,24 +1,43 @@
-//! `lumen import <mesh> --centerline <csv> [--spokes B] [--ring-spacing D] [--inflate F] -o <model>`:
-//! a tube model from a triangle surface and its midline, by ray casting
-//! ([`lumen_import`] does the work and counts every repaired spoke).
+//! `lumen import <mesh> --centerline <csv> [--units U] [--spokes B] [--ring-spacing D]
+//! [--inflate F] [--force] -o <model>`: a tube model from a triangle surface and its midline, by
+//! ray casting ([`lumen_import`] does the work and counts every repaired spoke). A model that is
+//! not a usable tube ([`lumen_import::quality`]) is refused with every problem named, unless
+//! `--force`.
 
 use crate::commands::{CliError, CliResult};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumen_detect::model::{save_native, to_text};
 use lumen_detect::Body;
-use lumen_import::{build_tube, load_centerline_csv, load_mesh, ImportError, ImportParams};
+use lumen_import::{assess, build_tube, load_centerline_csv, load_mesh, ImportError, ImportParams, Thresholds, Unit};
 use std::path::PathBuf;
 use std::time::Duration;
 
 #[derive(Debug, Args)]
 pub struct ImportArgs {
-    /// The wall: a triangle surface (`.obj`, or `.stl` binary or ASCII), in the unit the model
-    /// will have (mm for the GCA colon).
+    /// The wall: a triangle surface (`.obj`, or `.stl` binary or ASCII).
     pub mesh: PathBuf,
     /// The midline: a CSV of points in order (`x,y,z` columns, or a header naming them).
     #[arg(long)]
     pub centerline: PathBuf,
+    /// The unit of the surface's coordinates: mm, cm, m, um, or voxel (with --voxel-size).
+    /// Everything is converted to mm, the model's unit.
+    #[arg(long, default_value = "mm")]
+    pub units: String,
+    /// The unit of the midline's coordinates, when it differs from the surface's (a midline in
+    /// voxel indices beside a surface in mm, say).
+    #[arg(long)]
+    pub centerline_units: Option<String>,
+    /// Voxel size in mm for `voxel` units: one value, or three as `x,y,z`.
+    #[arg(long)]
+    pub voxel_size: Option<String>,
+    /// Position in mm of voxel (0, 0, 0) for `voxel` units, as `x,y,z`.
+    #[arg(long, default_value = "0,0,0")]
+    pub voxel_origin: String,
+    /// Write the model even when the import's quality checks refuse it (the problems are still
+    /// printed).
+    #[arg(long)]
+    pub force: bool,
     /// Radial vectors per ring.
     #[arg(long, default_value_t = 32)]
     pub spokes: usize,
@@ -56,16 +75,53 @@ pub fn run(a: ImportArgs) -> CliResult {
     let spinner = ProgressBar::new_spinner().with_style(ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("a valid template"));
     spinner.enable_steady_tick(Duration::from_millis(120));
     spinner.set_message(format!("reading {}", a.mesh.display()));
-    let mesh = load_mesh(&a.mesh)?;
-    let centerline = load_centerline_csv(&a.centerline)?;
+    let mesh_unit = unit(&a.units, "--units", &a)?;
+    let line_unit = match &a.centerline_units {
+        Some(u) => unit(u, "--centerline-units", &a)?,
+        None => mesh_unit,
+    };
+    let mesh = load_mesh(&a.mesh)?.to_mm(mesh_unit);
+    let centerline = load_centerline_csv(&a.centerline)?.to_mm(line_unit);
     spinner.set_message(format!("casting {} rays per ring along {:.0} of midline", a.spokes, centerline.length()));
     let built = build_tube(&mesh, &centerline, &params);
     spinner.finish_and_clear();
     let (tube, report) = built?;
+    println!("{report}");
+    let problems = assess(&report, &Thresholds::default());
+    for p in &problems {
+        eprintln!("problem: {p}");
+    }
+    if !problems.is_empty() && !a.force {
+        return Err(CliError::ImportRefused { mesh: a.mesh.clone(), problems: problems.len() });
+    }
     let text = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"));
     let bytes = if text { to_text(&tube).into_bytes() } else { save_native(&Body::Tube(tube)) };
     std::fs::write(&a.output, bytes).map_err(|source| CliError::Write { path: a.output.clone(), source })?;
-    println!("{report}");
     println!("wrote {} ({})", a.output.display(), if text { "text format" } else { "native format" });
     Ok(())
+}
+
+/// The unit a flag names; `voxel` takes `--voxel-size` and `--voxel-origin`.
+fn unit(name: &str, flag: &str, a: &ImportArgs) -> CliResult<Unit> {
+    if !name.eq_ignore_ascii_case("voxel") {
+        return name.parse().map_err(|_| CliError::bad_flag(flag, name, "mm, cm, m, um or voxel"));
+    }
+    let Some(size) = &a.voxel_size else {
+        return Err(CliError::bad_flag(flag, name, "--voxel-size too (the voxel's size in mm)"));
+    };
+    let size = match triple(size) {
+        Some([x, y, z]) if [x, y, z].iter().all(|v| v.is_finite() && *v != 0.0) => [x, y, z],
+        _ => match size.trim().parse::<f32>() {
+            Ok(v) if v.is_finite() && v > 0.0 => [v; 3],
+            _ => return Err(CliError::bad_flag("--voxel-size", size, "a size in mm, or three as x,y,z, none zero")),
+        },
+    };
+    let origin = triple(&a.voxel_origin).filter(|o| o.iter().all(|v| v.is_finite())).ok_or_else(|| CliError::bad_flag("--voxel-origin", &a.voxel_origin, "three numbers in mm as x,y,z"))?;
+    Ok(Unit::Voxel { size, origin })
+}
+
+/// Three comma-separated numbers.
+fn triple(s: &str) -> Option<[f32; 3]> {
+    let v: Vec<f32> = s.split(',').map(|x| x.trim().parse().ok()).collect::<Option<_>>()?;
+    v.try_into().ok()
 }
