@@ -1,6 +1,7 @@
 //! Real colons: a tube model from a triangle surface and a midline.
 //!
-//! 1. [`load_mesh`] reads the surface (OBJ, STL binary or ASCII) and [`load_centerline_csv`]
+//! 1. [`load_mesh`] reads the surface (OBJ; STL binary or ASCII; PLY ASCII or binary; legacy
+//!    VTK polydata, ASCII or BINARY; VTK XML polydata `.vtp`) and [`load_centerline_csv`]
 //!    the midline.
 //! 2. [`build_tube`] resamples the midline every `ring_spacing` along its arc (after a light
 //!    Gaussian smoothing of its points), smooths its tangents (CT midlines are noisy and ring
@@ -36,7 +37,7 @@ pub mod probe;
 
 pub use build::{build_tube, ImportParams, ImportReport, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
 pub use centerline::{load_centerline_csv, parse_centerline_csv, Centerline};
-pub use mesh::{load_mesh, parse_obj, parse_stl, Mesh};
+pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, Mesh, SURFACE_FORMATS};
 
 use thiserror::Error;
 
@@ -47,10 +48,26 @@ pub enum ImportError {
     Io(String, #[source] std::io::Error),
     #[error("{file}: line {line}: {message}")]
     Parse { file: String, line: usize, message: String },
+    /// A file that is wrong as a whole or at a place that is not a text line (an item of binary
+    /// data, a JSON point): the message names the place.
+    #[error("{file}: {message}")]
+    Format { file: String, message: String },
     #[error("{0}")]
     Invalid(String),
     /// An [`ImportParams`] field out of range: which one (as `ImportParams` names it, less the
     /// unit), its value, and what it must be.
     #[error("{name} {value}: expected {expected}")]
     Param { name: &'static str, value: String, expected: String },
+}
+
+impl ImportError {
+    /// Names `path` in a parse error from a `parse_*` function (which does not know the file).
+    pub(crate) fn in_file(self, path: &std::path::Path) -> Self {
+        let file = path.display().to_string();
+        match self {
+            ImportError::Parse { line, message, .. } => ImportError::Parse { file, line, message },
+            ImportError::Format { message, .. } => ImportError::Format { file, message },
+            other => other,
+        }
+    }
 }

@@ -1,6 +1,6 @@
 //! Wavefront OBJ surfaces.
 
-use super::{num, perr, Mesh};
+use super::{no_triangles, num, perr, Mesh};
 use crate::ImportError;
 
 /// Parses Wavefront OBJ text: `v x y z [w]` and `f` lines (indices 1-based or negative, in the
@@ -48,7 +48,7 @@ pub fn parse_obj(text: &str) -> Result<Mesh, ImportError> {
         }
     }
     if m.triangles.is_empty() {
-        return Err(perr(0, "no faces"));
+        return Err(no_triangles());
     }
     Ok(m)
 }

@@ -1,6 +1,6 @@
 //! STL surfaces, binary and ASCII.
 
-use super::{num, perr, Mesh};
+use super::{ferr, no_triangles, num, perr, Mesh};
 use crate::ImportError;
 use std::collections::HashMap;
 
@@ -27,13 +27,13 @@ pub fn parse_stl(bytes: &[u8]) -> Result<Mesh, ImportError> {
                     *c = f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
                 }
                 if !p.iter().all(|c| c.is_finite()) {
-                    return Err(perr(0, format!("binary STL triangle {t}: vertex {v} is not finite")));
+                    return Err(ferr(format!("binary STL triangle {t}: vertex {v} is not finite: {p:?}")));
                 }
                 soup.push(p);
             }
         }
     } else {
-        let text = std::str::from_utf8(bytes).map_err(|_| perr(0, "neither a binary STL (size does not match its triangle count) nor ASCII text"))?;
+        let text = std::str::from_utf8(bytes).map_err(|_| ferr("neither a binary STL (size does not match its triangle count) nor ASCII text"))?;
         if !text.trim_start().starts_with("solid") {
             return Err(perr(1, "not an STL file: ASCII STL starts with `solid`, binary STL size must be 84 + 50 n"));
         }
@@ -45,11 +45,11 @@ pub fn parse_stl(bytes: &[u8]) -> Result<Mesh, ImportError> {
             }
         }
         if !soup.len().is_multiple_of(3) {
-            return Err(perr(0, format!("{} vertices is not a whole number of triangles", soup.len())));
+            return Err(ferr(format!("{} vertices is not a whole number of triangles", soup.len())));
         }
     }
     if soup.is_empty() {
-        return Err(perr(0, "no triangles"));
+        return Err(no_triangles());
     }
     let mut m = Mesh::default();
     let mut index: HashMap<[u32; 3], u32> = HashMap::new();
