@@ -1,8 +1,8 @@
 //! Real colons: a tube model from a triangle surface and a midline.
 //!
 //! 1. [`load_mesh`] reads the surface (OBJ; STL binary or ASCII; PLY ASCII or binary; legacy
-//!    VTK polydata, ASCII or BINARY; VTK XML polydata `.vtp`) and [`load_centerline_csv`]
-//!    the midline.
+//!    VTK polydata, ASCII or BINARY; VTK XML polydata `.vtp`) and [`load_centerline`] the
+//!    midline (CSV, or JSON: point arrays, objects with `x`, `y`, `z`, 3D Slicer markups).
 //! 2. [`build_tube`] resamples the midline every `ring_spacing` along its arc (after a light
 //!    Gaussian smoothing of its points), smooths its tangents (CT midlines are noisy and ring
 //!    planes follow the tangent), and carries a rotation-minimising frame `(n, b)` along it. At
@@ -36,7 +36,7 @@ pub mod mesh;
 pub mod probe;
 
 pub use build::{build_tube, ImportParams, ImportReport, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
-pub use centerline::{load_centerline_csv, parse_centerline_csv, Centerline};
+pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, Centerline};
 pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, Mesh, SURFACE_FORMATS};
 
 use thiserror::Error;

@@ -1,5 +1,5 @@
 //! Import: the same square pyramid written as PLY, legacy VTK and VTK XML loads to the same
-//! surface; each reader's errors name the file and the place.
+//! surface; each reader's errors name the file and the place; JSON midlines in every shape.
 
 use lumen_import::*;
 use std::path::{Path, PathBuf};
@@ -390,4 +390,48 @@ fn an_unsupported_file_lists_the_formats() {
             assert!(e.contains(f), "{f} missing from: {e}");
         }
     }
+}
+
+// ---- JSON midlines ----
+
+#[test]
+fn json_midlines_in_every_shape_give_the_same_points() {
+    let want = vec![[0.0, 0.0, 0.0], [1.5, -2.0, 3.0], [2.0, 4.0, 1e3]];
+    let shapes = [
+        r#"[[0,0,0],[1.5,-2,3],[2,4,1e3]]"#,
+        r#"[{"x":0,"y":0,"z":0},{"x":1.5,"y":-2,"z":3,"label":"b"},{"z":1000,"y":4,"x":2}]"#,
+        r#"{"points":[[0,0,0],[1.5,-2,3],[2,4,1000]]}"#,
+        r#"{"units":"mm","centerline":[{"x":0,"y":0,"z":0},{"x":1.5,"y":-2,"z":3},{"x":2,"y":4,"z":1000}]}"#,
+        r#"{"path":[[0,0,0],[1.5,-2,3],[2,4,1000]]}"#,
+        r#"{"@schema":"https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/Resources/Schema/markups-schema-v1.0.3.json#",
+            "markups":[{"type":"Curve","coordinateSystem":"LPS","controlPoints":[
+              {"id":"1","label":"C-1","position":[0.0,0.0,0.0]},
+              {"id":"2","label":"C-2","position":[1.5,-2.0,3.0]},
+              {"id":"3","label":"C-3","position":[2.0,4.0,1000.0]}]}]}"#,
+    ];
+    let d = tmp_dir("json");
+    for (k, s) in shapes.iter().enumerate() {
+        let c = parse_centerline_json(s).unwrap_or_else(|e| panic!("shape {k}: {e}"));
+        assert_eq!(c.points, want, "shape {k}");
+        assert_eq!(load_centerline(write(&d, &format!("c{k}.json"), s)).unwrap().points, want, "shape {k}");
+    }
+    // Without the extension, JSON is told from CSV by its first character.
+    assert_eq!(load_centerline(write(&d, "c.mid", shapes[2])).unwrap().points, want);
+    assert_eq!(load_centerline(write(&d, "c.csv", "x,y,z\n0,0,0\n1.5,-2,3\n2,4,1000\n")).unwrap().points, want);
+}
+
+#[test]
+fn json_midline_errors_name_the_point_and_the_file() {
+    let d = tmp_dir("json-errors");
+    let e = load_centerline(write(&d, "short.json", "[[0,0,0],[1,2]]")).unwrap_err().to_string();
+    assert!(e.contains("short.json") && e.contains("point 1: expected 3 numbers, got 2 values"), "{e}");
+    let e = parse_centerline_json(r#"[{"x":0,"y":0,"z":0},{"x":1,"y":"2","z":3}]"#).unwrap_err().to_string();
+    assert!(e.contains("point 1") && e.contains("y is a string"), "{e}");
+    let e = parse_centerline_json(r#"[[0,0,0],[1,2,1e39]]"#).unwrap_err().to_string();
+    assert!(e.contains("point 1") && e.contains("not finite"), "{e}");
+    let e = load_centerline(write(&d, "syntax.json", "[[0,0,0],\n[1,2,3]\n")).unwrap_err().to_string();
+    assert!(e.contains("syntax.json") && e.contains("line 3"), "{e}");
+    let e = parse_centerline_json(r#"{"name":"colon"}"#).unwrap_err().to_string();
+    assert!(e.contains("points"), "{e}");
+    assert!(parse_centerline_json("[[0,0,0]]").is_err(), "one point is not a midline");
 }
