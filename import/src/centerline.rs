@@ -1,4 +1,4 @@
-//! Midlines from CSV files.
+//! Midlines from CSV and JSON files.
 
 use crate::ImportError;
 use std::path::Path;
@@ -21,6 +21,21 @@ impl Centerline {
     }
 }
 
+/// Loads a midline by extension: `.csv` and `.txt` as [`load_centerline_csv`] reads them,
+/// `.json` as [`parse_centerline_json`]; other files are JSON when they start with `[` or `{`,
+/// else CSV. Errors name the file.
+pub fn load_centerline(path: impl AsRef<Path>) -> Result<Centerline, ImportError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|e| ImportError::Io(path.display().to_string(), e))?;
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    let json = match ext.as_deref() {
+        Some("csv" | "txt") => false,
+        Some("json") => true,
+        _ => text.trim_start().starts_with(['[', '{']),
+    };
+    if json { parse_centerline_json(&text) } else { parse_centerline_csv(&text) }.map_err(|e| e.in_file(path))
+}
+
 /// Loads a midline CSV as written for the GCA colon (`centerline_mm.csv`): lines starting with
 /// `#` are comments; the column names come from the first comment or text line that names
 /// columns (`s_mm,x_mm,y_mm,z_mm,...`; a `_mm` suffix is ignored), and `x`, `y`, `z` are
@@ -30,10 +45,7 @@ impl Centerline {
 pub fn load_centerline_csv(path: impl AsRef<Path>) -> Result<Centerline, ImportError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|e| ImportError::Io(path.display().to_string(), e))?;
-    parse_centerline_csv(&text).map_err(|e| match e {
-        ImportError::Parse { line, message, .. } => ImportError::Parse { file: path.display().to_string(), line, message },
-        other => other,
-    })
+    parse_centerline_csv(&text).map_err(|e| e.in_file(path))
 }
 
 fn fields(s: &str) -> Vec<&str> {
@@ -113,4 +125,82 @@ pub fn parse_centerline_csv(text: &str) -> Result<Centerline, ImportError> {
     out.s = cs.map(|_| s);
     out.radius_median = cr.map(|_| r);
     Ok(out)
+}
+
+fn jerr(message: impl Into<String>) -> ImportError {
+    ImportError::Format { file: String::new(), message: message.into() }
+}
+
+/// Parses a midline from JSON, in the shapes tools write: an array of `[x, y, z]`; an array of
+/// objects with `x`, `y`, `z` (or a `position` array); or an object whose `points`,
+/// `centerline`, `path` or `markups` field holds one of these (3D Slicer's markups:
+/// `{"markups": [{"controlPoints": [{"position": [x, y, z]}, ...]}]}`, the first markup with
+/// control points). Coordinates are taken as written (no RAS/LPS flip), in mm. Errors name the
+/// point and what was wrong, or the line of a JSON syntax error.
+pub fn parse_centerline_json(text: &str) -> Result<Centerline, ImportError> {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| perr(e.line(), format!("not JSON: {e}")))?;
+    let points = find_points(&value, 0)?;
+    let mut out = Centerline::default();
+    for (i, p) in points.iter().enumerate() {
+        out.points.push(point(p).map_err(|m| jerr(format!("point {i}: {m}")))?);
+    }
+    if out.points.len() < 2 {
+        return Err(jerr(format!("{} points; a midline needs at least 2", out.points.len())));
+    }
+    Ok(out)
+}
+
+/// The array of points in `v`, looking through the fields that hold it.
+fn find_points(v: &serde_json::Value, depth: usize) -> Result<&Vec<serde_json::Value>, ImportError> {
+    use serde_json::Value;
+    const FIELDS: &str = "`points`, `centerline`, `path`, `markups` or `controlPoints`";
+    match v {
+        // A Slicer `markups` array holds markups, not points: take the first with control points.
+        Value::Array(items) if items.first().is_some_and(|m| m.get("controlPoints").is_some()) => {
+            let m = items.iter().find(|m| m.get("controlPoints").and_then(Value::as_array).is_some_and(|c| !c.is_empty())).unwrap_or(&items[0]);
+            find_points(m, depth + 1)
+        }
+        Value::Array(items) => Ok(items),
+        Value::Object(o) if depth < 4 => {
+            let field = ["points", "centerline", "path", "markups", "controlPoints"].iter().find_map(|k| o.get(*k));
+            match field {
+                Some(f) => find_points(f, depth + 1),
+                None => Err(jerr(format!("an object without a points array: expected an array of points or a field {FIELDS}"))),
+            }
+        }
+        other => Err(jerr(format!("expected an array of points or an object with a field {FIELDS}, got {}", kind(other)))),
+    }
+}
+
+fn kind(v: &serde_json::Value) -> &'static str {
+    use serde_json::Value;
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// One point: `[x, y, z]`, `{"x": .., "y": .., "z": ..}` or `{"position": [x, y, z]}`.
+fn point(v: &serde_json::Value) -> Result<[f32; 3], String> {
+    use serde_json::Value;
+    let coord = |c: Option<&Value>, name: &str| -> Result<f32, String> {
+        let c = c.ok_or_else(|| format!("no {name}"))?;
+        let x = c.as_f64().ok_or_else(|| format!("{name} is {}, expected a number", kind(c)))? as f32;
+        if !x.is_finite() {
+            return Err(format!("{name} is not finite in single precision: {c}"));
+        }
+        Ok(x)
+    };
+    match v {
+        Value::Array(a) if a.len() == 3 && a.iter().all(Value::is_number) => Ok([coord(a.first(), "x")?, coord(a.get(1), "y")?, coord(a.get(2), "z")?]),
+        Value::Array(a) if a.len() != 3 => Err(format!("expected 3 numbers, got {} values", a.len())),
+        Value::Array(_) => Err(format!("expected 3 numbers, got {v}")),
+        Value::Object(o) if o.contains_key("position") => point(&o["position"]),
+        Value::Object(o) => Ok([coord(o.get("x"), "x")?, coord(o.get("y"), "y")?, coord(o.get("z"), "z")?]),
+        other => Err(format!("expected [x, y, z] or an object with x, y, z, got {}", kind(other))),
+    }
 }

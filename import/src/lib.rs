@@ -1,7 +1,8 @@
 //! Real colons: a tube model from a triangle surface and a midline.
 //!
-//! 1. [`load_mesh`] reads the surface (OBJ, STL binary or ASCII) and [`load_centerline_csv`]
-//!    the midline.
+//! 1. [`load_mesh`] reads the surface (OBJ; STL binary or ASCII; PLY ASCII or binary; legacy
+//!    VTK polydata, ASCII or BINARY; VTK XML polydata `.vtp`) and [`load_centerline`] the
+//!    midline (CSV, or JSON: point arrays, objects with `x`, `y`, `z`, 3D Slicer markups).
 //! 2. [`build_tube`] resamples the midline every `ring_spacing` along its arc (after a light
 //!    Gaussian smoothing of its points), smooths its tangents (CT midlines are noisy and ring
 //!    planes follow the tangent), and carries a rotation-minimising frame `(n, b)` along it. At
@@ -17,13 +18,21 @@
 //!    ring's median (rings with too few kept rays borrow the median of the nearest good rings).
 //! 4. `inflate` scales every radial vector: the GCA scan was not insufflated, and `inflate = 2`
 //!    turns its collapsed lumen (median radius about 9.4 mm) into a colonoscopy lumen.
+//! 5. The surface's orientation is read from the midline (the side most first hits see is the
+//!    inside; a surface whose normals face its lumen is read flipped), doubled walls are
+//!    counted, and the wall (before inflation) is measured against the surface
+//!    ([`fidelity`]). [`quality::assess`] turns the report into named problems with the rings
+//!    they touch; `lumen import` refuses a model with any.
 //!
 //! Radial vectors run counter-clockwise about the midline's tangent, spoke 0 along the frame's
 //! normal, as in [`crate::colon`].
 //!
 //! ## Modules
 //! - [`mesh`] and [`centerline`]: the file formats.
+//! - [`units`]: mm, cm, m, um or voxel coordinates to mm.
 //! - [`build`]: rings, ray casts and repairs.
+//! - [`fidelity`]: the imported wall's distance to the surface.
+//! - [`quality`]: thresholds on the report, and the problems they find.
 //! - [`geom`]: arc length, smoothing along the arc, rotation-minimising frames (f64).
 //! - [`probe`]: tube coordinates for checks (where a point is along a tube, its distance to
 //!   the midline and to the wall), and [`probe::clearance`] (wall overlap, bend tightness).
@@ -38,10 +47,10 @@ pub mod quality;
 pub mod units;
 
 pub use build::{build_tube, ImportParams, ImportReport, RingTally, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
+pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, Centerline};
+pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, Mesh, SURFACE_FORMATS};
 pub use quality::{assess, Cause, Problem, Thresholds};
 pub use units::Unit;
-pub use centerline::{load_centerline_csv, parse_centerline_csv, Centerline};
-pub use mesh::{load_mesh, parse_obj, parse_stl, Mesh};
 
 use thiserror::Error;
 
@@ -52,10 +61,26 @@ pub enum ImportError {
     Io(String, #[source] std::io::Error),
     #[error("{file}: line {line}: {message}")]
     Parse { file: String, line: usize, message: String },
+    /// A file that is wrong as a whole or at a place that is not a text line (an item of binary
+    /// data, a JSON point): the message names the place.
+    #[error("{file}: {message}")]
+    Format { file: String, message: String },
     #[error("{0}")]
     Invalid(String),
     /// An [`ImportParams`] field out of range: which one (as `ImportParams` names it, less the
     /// unit), its value, and what it must be.
     #[error("{name} {value}: expected {expected}")]
     Param { name: &'static str, value: String, expected: String },
+}
+
+impl ImportError {
+    /// Names `path` in a parse error from a `parse_*` function (which does not know the file).
+    pub(crate) fn in_file(self, path: &std::path::Path) -> Self {
+        let file = path.display().to_string();
+        match self {
+            ImportError::Parse { line, message, .. } => ImportError::Parse { file, line, message },
+            ImportError::Format { message, .. } => ImportError::Format { file, message },
+            other => other,
+        }
+    }
 }

@@ -9,15 +9,16 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumen_detect::model::{save_native, to_text};
 use lumen_detect::Body;
-use lumen_import::{assess, build_tube, load_centerline_csv, load_mesh, ImportError, ImportParams, Thresholds, Unit};
+use lumen_import::{assess, build_tube, load_centerline, load_mesh, ImportError, ImportParams, Thresholds, Unit};
 use std::path::PathBuf;
 use std::time::Duration;
 
 #[derive(Debug, Args)]
 pub struct ImportArgs {
-    /// The wall: a triangle surface (`.obj`, or `.stl` binary or ASCII).
+    /// The wall: a triangle surface (OBJ, STL, PLY, VTK legacy `.vtk` or XML `.vtp` polydata).
     pub mesh: PathBuf,
-    /// The midline: a CSV of points in order (`x,y,z` columns, or a header naming them).
+    /// The midline, points in order: CSV (`x,y,z` columns, or a header naming them) or JSON
+    /// (an array of `[x, y, z]` or of objects with `x`, `y`, `z`, or 3D Slicer markups).
     #[arg(long)]
     pub centerline: PathBuf,
     /// The unit of the surface's coordinates: mm, cm, m, um, or voxel (with --voxel-size).
@@ -81,7 +82,7 @@ pub fn run(a: ImportArgs) -> CliResult {
         None => mesh_unit,
     };
     let mesh = load_mesh(&a.mesh)?.to_mm(mesh_unit);
-    let centerline = load_centerline_csv(&a.centerline)?.to_mm(line_unit);
+    let centerline = load_centerline(&a.centerline)?.to_mm(line_unit);
     spinner.set_message(format!("casting {} rays per ring along {:.0} of midline", a.spokes, centerline.length()));
     let built = build_tube(&mesh, &centerline, &params);
     spinner.finish_and_clear();
