@@ -127,7 +127,7 @@ pub struct ImportReport {
     pub midline_beyond_surface: f64,
     /// The surface's bounding-box diagonal, in its unit.
     pub surface_diagonal: f64,
-    /// Rings where the midline's points turn back on themselves (by more than 150 degrees from
+    /// Rings where the midline's points turn back on themselves (by more than 120 degrees from
     /// one point to the next): points out of order, or a midline stitched from pieces.
     pub turns_back: Vec<usize>,
     /// The wall (before inflation) against the surface, in its unit.
@@ -329,9 +329,11 @@ const NEIGHBOUR_RATIO: f64 = 0.75;
 /// A second wall behind a ray's first hit, closer than this fraction of the hit's distance,
 /// makes the hit a doubled wall.
 const DOUBLE_WALL: f64 = 0.02;
-/// Cosine of the turn (150 degrees) between consecutive midline steps that counts as turning
+/// Turn (radians) of a ray cast again after slipping through an edge between triangles.
+const EDGE_NUDGE: f64 = 1e-4;
+/// Cosine of the turn (120 degrees) between consecutive midline steps that counts as turning
 /// back.
-const TURN_BACK_COS: f64 = -0.866;
+const TURN_BACK_COS: f64 = -0.5;
 /// The surface is oriented when at least this fraction of first hits agree on which way it faces.
 const ORIENTED_AGREEMENT: f64 = 0.8;
 
@@ -374,7 +376,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     }
     let rings = (length / spacing + 1e-9).floor() as usize + 1;
     if !(2..=65_536).contains(&rings) {
-        return Err(ImportError::Invalid(format!("{rings} rings ({length:.1} mm of midline every {spacing} mm); 2 to 65,536 are allowed")));
+        return Err(ImportError::Invalid(format!("{rings} rings ({length:.3} mm of midline every {spacing} mm); 2 to 65,536 are allowed (are the files in mm? lumen import --units converts)")));
     }
     let smooth = smooth_along(&raw, &raw_arc, params.point_smoothing_mm as f64);
     let pts: Vec<V3d> = (0..rings).map(|i| at_arc(&smooth, &raw_arc, i as f64 * spacing)).collect();
@@ -412,9 +414,15 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     for i in 0..rings {
         let o = pts[i];
         for k in 0..b {
+            // A ray through a shared edge or vertex can slip between the triangles (parry's test
+            // is not watertight): a miss is cast again, turned a hair about the tangent.
+            let cast = |d: V3d| {
+                let ray = Ray::new(Vector::new(o.x as f32, o.y as f32, o.z as f32), Vector::new(d.x as f32, d.y as f32, d.z as f32));
+                trimesh.cast_local_ray_and_get_normal(&ray, (2.0 * diag) as f32, false).map(|h| (ray, h))
+            };
             let d = dirs[i][k];
-            let ray = Ray::new(Vector::new(o.x as f32, o.y as f32, o.z as f32), Vector::new(d.x as f32, d.y as f32, d.z as f32));
-            let Some(hit) = trimesh.cast_local_ray_and_get_normal(&ray, (2.0 * diag) as f32, false) else {
+            let side = tan[i].cross(&d);
+            let Some((ray, hit)) = cast(d).or_else(|| cast((d + side * EDGE_NUDGE).normalize())).or_else(|| cast((d - side * EDGE_NUDGE).normalize())) else {
                 continue;
             };
             let t = hit.time_of_impact as f64;
@@ -520,7 +528,8 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
         }
     }
     let doubled = hits.iter().flatten().filter(|h| h.doubled).count();
-    let (mlo, mhi) = (centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))), centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))));
+    let (mlo, mhi) =
+        (centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))), centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))));
     let midline_beyond_surface = (0..3).map(|d| (lo[d] - mlo[d]).max(mhi[d] - hi[d]).max(0.0) as f64).fold(0.0, f64::max);
     let mut report = ImportReport {
         rings,

@@ -42,7 +42,18 @@ pub struct Thresholds {
 
 impl Default for Thresholds {
     fn default() -> Self {
-        Self { repaired: 0.25, from_outside: 0.05, borrowed: 0.05, midline_outside: 0.02, doubled: 0.10, orientation: 0.8, radius_mm: 1.0..=100.0, midline_beyond: 0.1, fidelity: 0.25, turns_back: 0.01 }
+        Self {
+            repaired: 0.25,
+            from_outside: 0.05,
+            borrowed: 0.05,
+            midline_outside: 0.02,
+            doubled: 0.10,
+            orientation: 0.8,
+            radius_mm: 1.0..=100.0,
+            midline_beyond: 0.1,
+            fidelity: 0.25,
+            turns_back: 0.01,
+        }
     }
 }
 
@@ -116,28 +127,57 @@ pub fn assess(r: &ImportReport, limits: &Thresholds) -> Vec<Problem> {
     if r.midline_beyond_surface > limits.midline_beyond * r.surface_diagonal {
         add(
             Cause::MidlineBeyond,
-            format!("the midline reaches {:.1} mm beyond the surface's bounding box (diagonal {:.1} mm; at most {}): are the midline and the surface in the same units?", r.midline_beyond_surface, r.surface_diagonal, pct(limits.midline_beyond)),
+            format!(
+                "the midline reaches {:.1} mm beyond the surface's bounding box (diagonal {:.1} mm; at most {}): are the midline and the surface in the same units?",
+                r.midline_beyond_surface,
+                r.surface_diagonal,
+                pct(limits.midline_beyond)
+            ),
             vec![],
         );
     }
     if !r.oriented && r.orientation_agreement < limits.orientation {
-        add(Cause::Orientation, format!("the surface faces both ways: only {} of first hits agree on which side is inside (at least {}); make its normals consistent", pct(r.orientation_agreement), pct(limits.orientation)), vec![]);
+        add(
+            Cause::Orientation,
+            format!(
+                "the surface faces both ways: only {} of first hits agree on which side is inside (at least {}); make its normals consistent",
+                pct(r.orientation_agreement),
+                pct(limits.orientation)
+            ),
+            vec![],
+        );
     }
     let outside = t.iter().filter(|x| x.outside(r.spokes)).count();
     if outside as f64 > limits.midline_outside * rings {
-        add(Cause::MidlineOutside, format!("the midline lies outside the surface at {outside} rings, {} (at most {})", pct(outside as f64 / rings), pct(limits.midline_outside)), where_(&|x| x.outside(r.spokes)));
+        add(
+            Cause::MidlineOutside,
+            format!("the midline lies outside the surface at {outside} rings, {} (at most {})", pct(outside as f64 / rings), pct(limits.midline_outside)),
+            where_(&|x| x.outside(r.spokes)),
+        );
     }
     if r.from_outside as f64 > limits.from_outside * rays {
-        add(Cause::FromOutside, format!("{} of rays met the wall from outside (at most {})", pct(r.from_outside as f64 / rays), pct(limits.from_outside)), where_(&|x| 4 * x.from_outside as usize >= r.spokes));
+        add(
+            Cause::FromOutside,
+            format!("{} of rays met the wall from outside (at most {})", pct(r.from_outside as f64 / rays), pct(limits.from_outside)),
+            where_(&|x| 4 * x.from_outside as usize >= r.spokes),
+        );
     }
     if r.doubled as f64 > limits.doubled * rays {
-        add(Cause::Doubled, format!("{} of rays met a doubled wall (at most {}): the surface is written twice or has a second wall right behind the first", pct(r.doubled as f64 / rays), pct(limits.doubled)), where_(&|x| 4 * x.doubled as usize >= r.spokes));
+        add(
+            Cause::Doubled,
+            format!("{} of rays met a doubled wall (at most {}): the surface is written twice or has a second wall right behind the first", pct(r.doubled as f64 / rays), pct(limits.doubled)),
+            where_(&|x| 4 * x.doubled as usize >= r.spokes),
+        );
     }
     if r.repaired_fraction() > limits.repaired {
         add(Cause::Repaired, format!("{} of rays were repaired (at most {})", pct(r.repaired_fraction()), pct(limits.repaired)), where_(&|x| 2 * x.repaired as usize >= r.spokes));
     }
     if r.rings_borrowed as f64 > limits.borrowed * rings {
-        add(Cause::Borrowed, format!("{} rings ({}) had too few wall hits and borrowed their radius (at most {})", r.rings_borrowed, pct(r.rings_borrowed as f64 / rings), pct(limits.borrowed)), where_(&|x| x.borrowed));
+        add(
+            Cause::Borrowed,
+            format!("{} rings ({}) had too few wall hits and borrowed their radius (at most {})", r.rings_borrowed, pct(r.rings_borrowed as f64 / rings), pct(limits.borrowed)),
+            where_(&|x| x.borrowed),
+        );
     }
     if r.fidelity.p99 > limits.fidelity * median {
         add(

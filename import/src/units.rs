@@ -13,7 +13,10 @@ pub enum Unit {
     M,
     Um,
     /// Voxel indices: `origin + index * size` (both in mm, per axis) is the point in mm.
-    Voxel { size: [f32; 3], origin: [f32; 3] },
+    Voxel {
+        size: [f32; 3],
+        origin: [f32; 3],
+    },
 }
 
 impl Unit {

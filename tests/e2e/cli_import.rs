@@ -1,5 +1,6 @@
 //! `lumen import`, run as a process: a cylinder surface written here becomes a tube whose spokes
-//! reach its wall; broken inputs are refused with the file and line.
+//! reach its wall; broken inputs are refused with the file and line; files in other units are
+//! refused until declared; VTK and JSON import like OBJ and CSV.
 
 use lumen_detect::model::{load_native, parse_text};
 use lumen_detect::Body;
@@ -94,5 +95,79 @@ fn broken_inputs_are_refused_with_file_and_line() {
     let out = import(&d, "cyl.obj", "x.lumen", &["--inflate=-1"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--inflate"));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The midline CSV of [`import`], mapped point by point.
+fn midline_csv(f: impl Fn([f32; 3]) -> [f32; 3]) -> String {
+    let mut csv = String::from("x,y,z\n");
+    for k in 0..=18 {
+        let p = f([0.0, 0.0, 5.0 + 5.0 * k as f32]);
+        csv += &format!("{},{},{}\n", p[0], p[1], p[2]);
+    }
+    csv
+}
+
+fn run(d: &Path, mesh: &str, line: &str, out: &str, extra: &[&str]) -> (bool, String, String) {
+    let o =
+        Command::new(LUMEN).arg("import").arg(d.join(mesh)).arg("--centerline").arg(d.join(line)).args(["--spokes", "16", "--ring-spacing", "2", "-o"]).arg(d.join(out)).args(extra).output().unwrap();
+    (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+#[test]
+fn files_in_other_units_are_refused_until_declared_and_force_writes_anyway() {
+    let d = dir("units");
+    // The cylinder and its midline in metres.
+    let metres: String = cylinder_obj()
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => format!("v {}\n", v.split_whitespace().map(|x| (x.parse::<f32>().unwrap() * 1e-3).to_string()).collect::<Vec<_>>().join(" ")),
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(d.join("m.obj"), metres).unwrap();
+    std::fs::write(d.join("m.csv"), midline_csv(|p| p.map(|x| x * 1e-3))).unwrap();
+    let (ok, _, err) = run(&d, "m.obj", "m.csv", "m.lumen", &[]);
+    assert!(!ok && err.contains("--units") && !d.join("m.lumen").exists(), "{err}");
+    let (ok, out, err) = run(&d, "m.obj", "m.csv", "m.lumen", &["--units", "m"]);
+    assert!(ok && out.contains("Radius min") && d.join("m.lumen").exists(), "{out}{err}");
+    let Body::Tube(t) = load_native(&std::fs::read(d.join("m.lumen")).unwrap()).unwrap() else { panic!("not a tube") };
+    let r = t.radial[0];
+    assert!(((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt() - R).abs() < 0.01, "{r:?}: the model is in mm");
+    // A midline in 0.5 mm voxels from (-10, -10, 0) beside the surface in mm.
+    std::fs::write(d.join("cyl.obj"), cylinder_obj()).unwrap();
+    std::fs::write(d.join("v.csv"), midline_csv(|p| [(p[0] + 10.0) / 0.5, (p[1] + 10.0) / 0.5, p[2] / 0.5])).unwrap();
+    let (ok, _, err) = run(&d, "cyl.obj", "v.csv", "v.lumen", &[]);
+    assert!(!ok && err.contains("problem: the midline reaches") && err.contains("same units") && err.contains("not a usable tube"), "{err}");
+    assert!(!d.join("v.lumen").exists());
+    let (ok, _, err) = run(&d, "cyl.obj", "v.csv", "v.lumen", &["--force"]);
+    assert!(ok && err.contains("problem: the midline reaches") && d.join("v.lumen").exists(), "--force: {err}");
+    let (ok, out, err) = run(&d, "cyl.obj", "v.csv", "v2.lumen", &["--centerline-units", "voxel", "--voxel-size", "0.5", "--voxel-origin", "-10,-10,0"]);
+    assert!(ok && !err.contains("problem") && out.contains("0 (0.00%) were repaired"), "{out}{err}");
+    let (ok, _, err) = run(&d, "cyl.obj", "v.csv", "v3.lumen", &["--centerline-units", "voxel"]);
+    assert!(!ok && err.contains("--voxel-size"), "{err}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_vtk_surface_and_a_json_midline_import_like_obj_and_csv() {
+    let d = dir("vtk");
+    let obj = cylinder_obj();
+    let verts: Vec<&str> = obj.lines().filter_map(|l| l.strip_prefix("v ")).collect();
+    let faces: Vec<Vec<usize>> = obj.lines().filter_map(|l| l.strip_prefix("f ")).map(|f| f.split_whitespace().map(|i| i.parse::<usize>().unwrap() - 1).collect()).collect();
+    let mut vtk = format!("# vtk DataFile Version 3.0\ncylinder\nASCII\nDATASET POLYDATA\nPOINTS {} float\n", verts.len());
+    verts.iter().for_each(|v| vtk += &format!("{v}\n"));
+    vtk += &format!("POLYGONS {} {}\n", faces.len(), faces.len() * 4);
+    faces.iter().for_each(|f| vtk += &format!("3 {} {} {}\n", f[0], f[1], f[2]));
+    std::fs::write(d.join("cyl.vtk"), vtk).unwrap();
+    std::fs::write(d.join("cyl.obj"), obj).unwrap();
+    let points: Vec<String> = (0..=18).map(|k| format!("[0, 0, {}]", 5 + 5 * k)).collect();
+    std::fs::write(d.join("c.json"), format!("{{\"points\": [{}]}}", points.join(", "))).unwrap();
+    std::fs::write(d.join("c.csv"), midline_csv(|p| p)).unwrap();
+    let (ok, _, err) = run(&d, "cyl.vtk", "c.json", "a.lumen", &[]);
+    assert!(ok, "{err}");
+    let (ok, _, err) = run(&d, "cyl.obj", "c.csv", "b.lumen", &[]);
+    assert!(ok, "{err}");
+    assert_eq!(std::fs::read(d.join("a.lumen")).unwrap(), std::fs::read(d.join("b.lumen")).unwrap());
     let _ = std::fs::remove_dir_all(&d);
 }

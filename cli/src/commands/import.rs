@@ -33,7 +33,7 @@ pub struct ImportArgs {
     #[arg(long)]
     pub voxel_size: Option<String>,
     /// Position in mm of voxel (0, 0, 0) for `voxel` units, as `x,y,z`.
-    #[arg(long, default_value = "0,0,0")]
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
     pub voxel_origin: String,
     /// Write the model even when the import's quality checks refuse it (the problems are still
     /// printed).
