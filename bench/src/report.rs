@@ -66,6 +66,9 @@ pub struct SceneInfo {
     pub build_s: f64,
     pub judge_s: f64,
     pub import_report: Option<String>,
+    /// The imported wall (before inflation) against the source surface: p50, p99, max (mm).
+    /// An import that lost the wall cannot score well against its own tube unnoticed.
+    pub import_fidelity_mm: Option<[f64; 3]>,
     pub attribution: Option<String>,
 }
 
@@ -325,6 +328,15 @@ impl Report {
         s.push('\n');
         for i in self.scenes.iter().filter(|i| i.import_report.is_some()) {
             let _ = writeln!(s, "Import, {} B = {}: {}\n", i.scene, i.spokes, i.import_report.as_deref().unwrap_or(""));
+        }
+        let imported: Vec<&SceneInfo> = self.scenes.iter().filter(|i| i.import_fidelity_mm.is_some()).collect();
+        if !imported.is_empty() {
+            s.push_str("## Import fidelity\n\nThe detection errors are judged against the imported tube's own wall; this is how far that wall (before inflation) lies from the source surface, so a bad import cannot look good.\n\n| scene | B | wall to surface p50 / p99 / max mm |\n|---|---|---|\n");
+            for i in imported {
+                let [a, b, c] = i.import_fidelity_mm.unwrap_or_default();
+                let _ = writeln!(s, "| {} | {} | {a:.3} / {b:.3} / {c:.2} |", i.scene, i.spokes);
+            }
+            s.push('\n');
         }
         let findings: Vec<(&Run, &Finding)> = self.runs.iter().filter(|r| r.method == "default").flat_map(|r| r.findings.iter().map(move |f| (r, f))).collect();
         s.push_str("## Where the default method disagrees with the reference\n\n");

@@ -43,8 +43,8 @@ pub struct SceneData {
     pub escaping_frames: usize,
     /// Tip depth of the first and last frame (mm of colon midline).
     pub depth_mm: [f32; 2],
-    /// What the import repaired (gca).
-    pub import_report: Option<String>,
+    /// What the import repaired, and its wall against the source surface (gca).
+    pub import_report: Option<lumen_import::ImportReport>,
     /// Data credit (gca).
     pub attribution: Option<&'static str>,
 }
@@ -65,7 +65,7 @@ pub fn ring_spacing(kind: ColonKind, opts: &Options) -> f32 {
 }
 
 /// The colon of `kind` with `spokes` spokes, rings `ring_factor` times denser than usual.
-pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, gca: Option<&Source>) -> Result<(Tube, Option<String>), Error> {
+pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, gca: Option<&Source>) -> Result<(Tube, Option<lumen_import::ImportReport>), Error> {
     let spacing = ring_spacing(kind, opts) / ring_factor;
     match kind {
         ColonKind::Generated => {
@@ -76,7 +76,7 @@ pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
             let g = gca.ok_or(Error::GcaNotLoaded)?;
             let p = ImportParams { spokes, ring_spacing: spacing, ..ImportParams::gca() };
             let (tube, rep) = g.tube(&p).map_err(Error::GcaImport)?;
-            Ok((tube, Some(rep.to_string())))
+            Ok((tube, Some(rep)))
         }
     }
 }

@@ -253,7 +253,8 @@ pub fn scene(kind: ColonKind, opts: &Options, gca: Option<&Source>, pb: &Progres
             reference_bound_mm: bounds.iter().copied().fold(0.0, f32::max) as f64,
             build_s,
             judge_s,
-            import_report: scene.import_report.clone(),
+            import_report: scene.import_report.as_ref().map(|r| r.to_string()),
+            import_fidelity_mm: scene.import_report.as_ref().map(|r| [r.fidelity.p50, r.fidelity.p99, r.fidelity.max]),
             attribution: scene.attribution.map(str::to_owned),
         });
         out.runs.append(&mut runs);

@@ -361,3 +361,14 @@ fn absent_real_colon_is_said_clearly() {
     assert_eq!(Options::full().spokes, vec![16, 32, 64]);
     assert_eq!(MethodKind::parse("parry"), Some(MethodKind::Parry));
 }
+
+#[test]
+fn the_report_shows_import_fidelity_beside_the_detection_errors() {
+    let mut report = lumen_bench::Report::default();
+    assert!(!report.markdown().contains("Import fidelity"));
+    report.scenes.push(lumen_bench::report::SceneInfo { scene: "gca".into(), spokes: 32, import_fidelity_mm: Some([0.0085, 1.133, 14.13]), ..Default::default() });
+    let md = report.markdown();
+    assert!(md.contains("## Import fidelity") && md.contains("| gca | 32 | 0.009 / 1.133 / 14.13 |"), "{md}");
+    let back = lumen_bench::Report::from_json(&serde_json::to_string(&report).unwrap()).unwrap();
+    assert_eq!(back.scenes[0].import_fidelity_mm, Some([0.0085, 1.133, 14.13]));
+}

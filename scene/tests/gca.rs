@@ -45,6 +45,12 @@ fn real_colon_imports_with_plausible_numbers() {
     assert_eq!(rep.missed + rep.from_outside + rep.neighbouring_loop + rep.outliers, rep.repaired());
     assert_eq!(rep.interpolated + rep.clamped, rep.repaired());
     assert_eq!(tube.first_non_star(), None);
+    // It passes the quality gate, oriented as given, and its wall (before inflation) lies on
+    // the surface but where rays were repaired and where rings cross in tight bends.
+    assert!(assess(&rep, &Thresholds::default()).is_empty(), "{:?}", assess(&rep, &Thresholds::default()));
+    assert!(!rep.flipped && rep.orientation_agreement > 0.99 && rep.turns_back.is_empty());
+    let w = rep.fidelity;
+    assert!(w.p50 < 0.05 && w.p99 < 1.5 && w.max < 20.0, "{w:?}");
 }
 
 #[test]
