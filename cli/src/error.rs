@@ -33,6 +33,9 @@ pub enum CliError {
     /// `lumen import` built a model that is not a usable tube (the problems were printed).
     #[error("{}: not a usable tube ({problems} problem(s) above); nothing written (--force writes it anyway)", mesh.display())]
     ImportRefused { mesh: PathBuf, problems: usize },
+    /// A model file given with --model could not be read as a colon.
+    #[error("--model {}: {message}", path.display())]
+    Model { path: PathBuf, message: String },
     /// The colon of `lumen sim` could not be had.
     #[error("the {scene} colon: {source}")]
     Colon { scene: &'static str, source: lumen_scene::gca::GcaError },

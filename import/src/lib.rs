@@ -33,6 +33,7 @@
 //! - [`build`]: rings, ray casts and repairs.
 //! - [`fidelity`]: the imported wall's distance to the surface.
 //! - [`quality`]: thresholds on the report, and the problems they find.
+//! - [`fit`]: where the lumen is narrower than a scope.
 //! - [`geom`]: arc length, smoothing along the arc, rotation-minimising frames (f64).
 //! - [`probe`]: tube coordinates for checks (where a point is along a tube, its distance to
 //!   the midline and to the wall), and [`probe::clearance`] (wall overlap, bend tightness).
@@ -40,6 +41,7 @@
 pub mod build;
 pub mod centerline;
 pub mod fidelity;
+pub mod fit;
 pub mod geom;
 pub mod mesh;
 pub mod probe;

@@ -233,3 +233,27 @@ fn a_reversed_midline_imports_and_one_out_of_order_is_refused() {
     let back = problems.iter().find(|p| p.cause == Cause::TurnsBack).expect("a turns-back problem");
     assert!(back.to_string().contains("are its points in order?"), "{back}");
 }
+
+#[test]
+fn narrowings_name_the_rings_narrower_than_the_scope() {
+    // A straight tube of radius 10 mm, 4 mm over rings 30 to 39 and 6 mm at ring 80.
+    let (rings, b) = (100, 16);
+    let radius = |i: usize| match i {
+        30..=39 => 4.0,
+        80 => 6.0,
+        _ => 10.0,
+    };
+    let points: Vec<[f32; 3]> = (0..rings).map(|i| [0.0, 0.0, i as f32]).collect();
+    let radial: Vec<[f32; 3]> = (0..rings * b)
+        .map(|n| {
+            let a = std::f32::consts::TAU * (n % b) as f32 / b as f32;
+            [radius(n / b) * a.cos(), radius(n / b) * a.sin(), 0.0]
+        })
+        .collect();
+    let tube = lumen_detect::Tube::new(points, radial, b).unwrap();
+    let n = lumen_import::fit::narrowings(&tube, 6.5);
+    assert_eq!(n.len(), 2, "{n:?}");
+    assert_eq!((n[0].rings.clone(), n[1].rings.clone()), (30..=39, 80..=80));
+    assert!((n[0].smallest - 4.0).abs() < 1e-5 && (n[1].smallest - 6.0).abs() < 1e-5);
+    assert!(lumen_import::fit::narrowings(&tube, 3.9).is_empty());
+}

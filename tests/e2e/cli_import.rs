@@ -171,3 +171,19 @@ fn a_vtk_surface_and_a_json_midline_import_like_obj_and_csv() {
     assert_eq!(std::fs::read(d.join("a.lumen")).unwrap(), std::fs::read(d.join("b.lumen")).unwrap());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn the_readmes_import_of_the_real_colon_is_the_gca_scenes_colon() {
+    let Ok((mesh, line)) = lumen_scene::gca::paths(None) else {
+        eprintln!("skipped: the GCA colon is not at ../shared/data/colon-gca00090");
+        return;
+    };
+    let d = dir("gca");
+    // The README's "bring your own colon" command.
+    let out = Command::new(LUMEN).arg("import").arg(&mesh).arg("--centerline").arg(&line).args(["--tangent-smoothing", "24", "--inflate", "2", "-o"]).arg(d.join("gca.lumen")).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && stdout.contains("Wall (before inflation) to surface"), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    let Body::Tube(t) = load_native(&std::fs::read(d.join("gca.lumen")).unwrap()).unwrap() else { panic!("not a tube") };
+    assert_eq!(t, lumen_scene::gca::load(None, 2.0).unwrap(), "so `lumen demo --model gca.lumen` runs the colon the gca scene runs");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -103,3 +103,51 @@ fn sigint_leaves_no_process_and_no_shared_memory() {
     assert!(processes_with(&prefix).is_empty(), "left running: {:?}", processes_with(&prefix));
     assert!(shm_files(&prefix).is_empty(), "left in /dev/shm: {:?}", shm_files(&prefix));
 }
+
+/// Per-frame contacts and penetration of a demo's `frames.jsonl`.
+fn frame_figures(dir: &Path) -> Vec<(u64, u64, f64)> {
+    let text = std::fs::read_to_string(dir.join("frames.jsonl")).expect("frames.jsonl");
+    text.lines()
+        .map(|l| {
+            let v: Value = serde_json::from_str(l).expect("a JSON line");
+            (v["frame"].as_u64().unwrap(), v["contacts"].as_u64().unwrap(), v["max_penetration_mm"].as_f64().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn a_model_file_runs_as_its_scene_does_and_bad_ones_are_named() {
+    let dir = TempDir::new("model");
+    // The generated colon written as the model file `lumen import` writes.
+    let colon = lumen_sim::setup::generated_colon(1, 1500.0);
+    std::fs::write(dir.0.join("gen.lumen"), lumen_detect::model::save_native(&lumen_detect::Body::Tube(colon))).unwrap();
+    let demo = |tag: &str, extra: &[&str]| {
+        let out = dir.0.join(tag);
+        let prefix = unique_prefix(tag);
+        let run = Command::new(LUMEN).args(["demo", "--frames", "200", "--prefix", &prefix, "--out"]).arg(&out).args(extra).output().expect("run lumen demo");
+        (run, out)
+    };
+    let model = dir.0.join("gen.lumen");
+    let (run, from_model) = demo("bymodel", &["--model", model.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success() && stdout.contains("SOUND"), "{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
+    let summary = std::fs::read_to_string(from_model.join("summary.json")).unwrap();
+    assert!(summary.contains("gen.lumen"), "the report names the model: {summary}");
+    let (run, from_scene) = demo("byscene", &[]);
+    assert!(run.status.success());
+    // The same colon, the same physics and detection: the same frames.
+    let frames = frame_figures(&from_model);
+    assert_eq!(frames.len(), 200);
+    assert!(frames.iter().any(|f| f.1 > 0), "no contacts in 200 frames");
+    assert_eq!(frames, frame_figures(&from_scene));
+
+    // A file that is not a model, and a missing one: named, before anything starts.
+    std::fs::write(dir.0.join("junk.lumen"), b"not a model").unwrap();
+    for (file, says) in [("junk.lumen", "LUMN"), ("absent.lumen", "No such file")] {
+        let (run, _) = demo("bad", &["--model", dir.0.join(file).to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && err.contains("--model") && err.contains(file) && err.contains(says), "{err}");
+    }
+    let (run, _) = demo("bad", &["--scope-radius", "0"]);
+    assert!(!run.status.success() && String::from_utf8_lossy(&run.stderr).contains("--scope-radius"));
+}

@@ -65,6 +65,11 @@ pub fn run(args: DemoArgs) -> CliResult<ExitCode> {
     if args.run.frames == 0 {
         return Err(CliError::bad_flag("--frames", args.run.frames, "at least 1"));
     }
+    // The scope's flags and a model file are checked here, before any process starts.
+    args.run.config()?;
+    if args.run.model.is_some() {
+        args.run.colon(0)?;
+    }
     std::fs::create_dir_all(&args.out).map_err(|source| CliError::FlagPath { flag: "--out", path: args.out.clone(), source })?;
     let prefix = args.prefix.clone().unwrap_or_else(|| format!("lumen_demo_{}_", std::process::id()));
     if !lumen_transport::shm::shm_files(&prefix).is_empty() {
@@ -119,11 +124,8 @@ impl Run<'_> {
         let figures_path = self.args.out.join("frames.jsonl");
         let every = (self.args.run.frames / 50).clamp(1, 100);
         let mut sim = Command::new(&exe);
-        sim.args(["sim", "--log", "warn", "--hold", "--scene", self.args.run.scene.name(), "--prefix", self.prefix]);
+        sim.args(["sim", "--log", "warn", "--hold", "--prefix", self.prefix]).args(self.args.run.child_args());
         sim.arg("--frames").arg(self.args.run.frames.to_string()).arg("--progress-every").arg(every.to_string()).arg("--figures").arg(&figures_path);
-        if let Some(d) = &self.args.run.data {
-            sim.arg("--data").arg(d);
-        }
         match &zenoh {
             Some(ep) => sim.args(["--transport", "zenoh", "--zenoh", ep]),
             None => sim.args(["--transport", "iceoryx2"]),
@@ -218,7 +220,7 @@ impl Run<'_> {
             p.stop(libc::SIGTERM, Duration::from_secs(10));
         }
         let rows = read_rows(figures_path)?;
-        let mut summary = Summary::new(self.args.run.scene.name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
+        let mut summary = Summary::new(&self.args.run.colon_name(), self.args.transport, figures, error, wall_s, MAX_PENETRATION_MM);
         summary.recording = recording;
         demo_report::write(&self.args.out, &summary, &rows).map_err(|e| CliError::Report { dir: self.args.out.clone(), source: Box::new(e) })?;
         println!("{}", summary.text());

@@ -34,6 +34,88 @@ pub struct RunArgs {
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
     #[arg(long)]
     pub data: Option<PathBuf>,
+    /// A colon model written by `lumen import` (native, or the text format when it ends in
+    /// `.txt`), in mm; replaces --scene.
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// The scope's radius, mm (a 13 mm adult colonoscope: 6.5).
+    #[arg(long, default_value_t = 6.5)]
+    pub scope_radius: f64,
+    /// The scope's insertion tube length, mm.
+    #[arg(long, default_value_t = 1600.0)]
+    pub scope_length: f64,
+    /// The scope's flexural rigidity EI, N m^2 (adult colonoscopes: about 0.1 to 0.3).
+    #[arg(long, default_value_t = 0.15)]
+    pub scope_stiffness: f64,
+}
+
+impl RunArgs {
+    /// What the run's colon is called in messages and reports: the scene, or the model file.
+    pub fn colon_name(&self) -> String {
+        match &self.model {
+            Some(p) => format!("model {}", p.display()),
+            None => self.scene.name().into(),
+        }
+    }
+
+    /// The colon: the model file when one is given (the error names it), else the scene.
+    pub fn colon(&self, seed: u64) -> CliResult<lumen_detect::Tube> {
+        if let Some(path) = &self.model {
+            let bytes = std::fs::read(path).map_err(|source| CliError::FlagPath { flag: "--model", path: path.clone(), source })?;
+            let text = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+            let body = if text { lumen_detect::model::parse_text(&String::from_utf8_lossy(&bytes)).map(lumen_detect::Body::Tube) } else { lumen_detect::model::load_native(&bytes) };
+            return match body {
+                Ok(lumen_detect::Body::Tube(t)) => Ok(t),
+                Ok(lumen_detect::Body::Rod(_)) => Err(CliError::Model { path: path.clone(), message: "holds a rod, not a colon (a tube)".into() }),
+                Err(e) => Err(CliError::Model { path: path.clone(), message: e.to_string() }),
+            };
+        }
+        let colon = setup::colon(self.scene, seed, self.data.as_deref()).map_err(|source| CliError::Colon { scene: self.scene.name(), source })?;
+        if self.scene == ColonKind::Gca {
+            eprintln!("data: {}", lumen_scene::gca::attribution());
+        }
+        Ok(colon)
+    }
+
+    /// The simulation's configuration with the scope of the flags; each flag is checked.
+    pub fn config(&self) -> CliResult<SimConfig> {
+        for (flag, v) in [("--scope-radius", self.scope_radius), ("--scope-length", self.scope_length), ("--scope-stiffness", self.scope_stiffness)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(CliError::bad_flag(flag, v, "a positive number"));
+            }
+        }
+        let mut c = SimConfig::default();
+        c.rod.radius_mm = self.scope_radius;
+        c.rod.length_mm = self.scope_length;
+        c.rod.flexural_rigidity_nm2 = self.scope_stiffness;
+        Ok(c)
+    }
+
+    /// The flags to give a `lumen sim` child for the same run (the colon and the scope).
+    pub fn child_args(&self) -> Vec<std::ffi::OsString> {
+        let mut a: Vec<std::ffi::OsString> = vec!["--scene".into(), self.scene.name().into()];
+        if let Some(d) = &self.data {
+            a.extend(["--data".into(), d.into()]);
+        }
+        if let Some(m) = &self.model {
+            a.extend(["--model".into(), m.into()]);
+        }
+        for (flag, v) in [("--scope-radius", self.scope_radius), ("--scope-length", self.scope_length), ("--scope-stiffness", self.scope_stiffness)] {
+            a.extend([flag.into(), v.to_string().into()]);
+        }
+        a
+    }
+}
+
+/// Says where the lumen is narrower than the scope (the scope pushes the wall open there).
+fn say_fit(colon: &lumen_detect::Tube, radius: f64) {
+    let n = lumen_import::fit::narrowings(colon, radius);
+    if n.is_empty() {
+        return;
+    }
+    let shown: Vec<String> = n.iter().take(8).map(|x| format!("rings {}-{} (smallest spoke {:.1} mm)", x.rings.start(), x.rings.end(), x.smallest)).collect();
+    let more = if n.len() > 8 { format!(" and {} more runs", n.len() - 8) } else { String::new() };
+    eprintln!("lumen sim: the lumen is narrower than the scope (radius {radius} mm) at {}{more}; the scope pushes the wall open there", shown.join(", "));
 }
 
 #[derive(Debug, Args)]
@@ -70,12 +152,10 @@ pub fn run(args: SimArgs) -> CliResult<std::process::ExitCode> {
         return Err(CliError::bad_flag("--reply-timeout", args.reply_timeout, "a positive number of seconds"));
     }
     let t0 = Instant::now();
-    let colon = setup::colon(args.run.scene, args.seed, args.run.data.as_deref()).map_err(|source| CliError::Colon { scene: args.run.scene.name(), source })?;
-    if args.run.scene == ColonKind::Gca {
-        eprintln!("data: {}", lumen_scene::gca::attribution());
-    }
-    eprintln!("lumen sim: {} colon, {} rings x {} spokes, built in {:.2?}", args.run.scene.name(), colon.rings(), colon.spokes, t0.elapsed());
-    let config = SimConfig::default();
+    let config = args.run.config()?;
+    let colon = args.run.colon(args.seed)?;
+    eprintln!("lumen sim: {} colon, {} rings x {} spokes, built in {:.2?}", args.run.colon_name(), colon.rings(), colon.spokes, t0.elapsed());
+    say_fit(&colon, config.rod.radius_mm);
     let spec = setup::scene_spec(&colon, &config.rod, &config.sim);
     let client = args.transport.client("lumen sim")?;
     let session = client.open_session(&spec)?;
