@@ -20,6 +20,8 @@ if [ ! -x "$venv/bin/python" ]; then
     echo "ci.sh: creating $venv"
     "$python" -m venv "$venv"
 fi
+# The venv's tools first on PATH: maturin's build backend runs the `maturin` executable by name.
+export PATH="$venv/bin:$PATH"
 "$venv/bin/python" -m pip install --quiet --upgrade pip
 "$venv/bin/python" -m pip install --quiet "maturin>=1.9.4,<2" numpy pytest
 # matplotlib is only for the example; its absence is not a failure.
