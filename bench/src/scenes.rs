@@ -56,23 +56,24 @@ impl SceneData {
     }
 }
 
-/// Ring spacing of the scenes (mm): generated 1.2 (~1,250 rings over 1.5 m), gca 1.0.
+/// Ring spacing of the scenes (mm): generated (and its variants) 1.2 (~1,250 rings over 1.5 m),
+/// gca 1.0.
 pub fn ring_spacing(kind: ColonKind, opts: &Options) -> f32 {
     match kind {
-        ColonKind::Generated => opts.generated_ring_spacing_mm,
         ColonKind::Gca => 1.0,
+        _ => opts.generated_ring_spacing_mm,
     }
 }
 
 /// The colon of `kind` with `spokes` spokes, rings `ring_factor` times denser than usual.
 pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, gca: Option<&Source>) -> Result<(Tube, Option<lumen_import::ImportReport>), Error> {
     let spacing = ring_spacing(kind, opts) / ring_factor;
-    match kind {
-        ColonKind::Generated => {
-            let p = ColonParams { length_mm: opts.generated_length_mm, ring_spacing: spacing, spokes, seed: opts.seed, ..ColonParams::default() };
+    match kind.generated(opts.seed) {
+        Some(p) => {
+            let p = ColonParams { length_mm: opts.generated_length_mm, ring_spacing: spacing, spokes, ..p };
             Ok((generate(&p), None))
         }
-        ColonKind::Gca => {
+        None => {
             let g = gca.ok_or(Error::GcaNotLoaded)?;
             let p = ImportParams { spokes, ring_spacing: spacing, ..ImportParams::gca() };
             let (tube, rep) = g.tube(&p).map_err(Error::GcaImport)?;
@@ -85,8 +86,8 @@ pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
 /// benchmark), 700 mm in the shorter real one; at most 60% of a short colon.
 pub fn start_depth(kind: ColonKind, colon_length: f64) -> f32 {
     let d: f64 = match kind {
-        ColonKind::Generated => 1000.0,
         ColonKind::Gca => 700.0,
+        _ => 1000.0,
     };
     d.min(0.6 * colon_length) as f32
 }

@@ -191,8 +191,8 @@ fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut
 pub fn scene(kind: ColonKind, opts: &Options, gca: Option<&Source>, pb: &ProgressBar) -> Result<SceneResult, Error> {
     let mut out = SceneResult { infos: Vec::new(), runs: Vec::new(), doubled: Vec::new() };
     let steps = match kind {
-        ColonKind::Generated => opts.reference_steps_generated,
         ColonKind::Gca => opts.reference_steps_gca,
+        _ => opts.reference_steps_generated,
     };
     for &b in &opts.spokes {
         pb.set_message(format!("{} B{b}: building frames", kind.name()));

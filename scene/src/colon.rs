@@ -64,11 +64,40 @@ pub struct ColonParams {
     pub jitter_mm: f32,
     /// The seed: equal parameters and seed give bit-identical tubes.
     pub seed: u64,
+    /// Places where the lumen narrows (default none): a spastic or collapsed segment, the anal
+    /// canal. Each takes the whole section down to its radius.
+    pub narrowings: Vec<Narrowing>,
+}
+
+/// A stretch of the colon whose lumen is at most `radius_mm` over `length_mm` of midline
+/// centred `at_mm` from the anus, easing back to the normal lumen over [`NARROWING_RAMP_MM`]
+/// either side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Narrowing {
+    pub at_mm: f32,
+    pub radius_mm: f32,
+    pub length_mm: f32,
+}
+
+/// Arc length over which a narrowing eases in and out (mm).
+pub const NARROWING_RAMP_MM: f64 = 25.0;
+
+impl Narrowing {
+    /// The radius `r` at arc `s` under this narrowing.
+    fn apply(&self, s: f64, r: f64) -> f64 {
+        let target = self.radius_mm as f64;
+        if target >= r {
+            return r;
+        }
+        let d = (s - self.at_mm as f64).abs() - 0.5 * self.length_mm as f64;
+        let w = if d <= 0.0 { 1.0 } else { 1.0 - smoothstep(d / NARROWING_RAMP_MM) };
+        r + (target - r) * w
+    }
 }
 
 impl Default for ColonParams {
     fn default() -> Self {
-        Self { length_mm: 1500.0, ring_spacing: 1.2, spokes: 32, radius_mm: [20.0, 35.0], haustra_spacing_mm: 30.0, haustra_depth_mm: 4.0, jitter_mm: 10.0, seed: 0 }
+        Self { length_mm: 1500.0, ring_spacing: 1.2, spokes: 32, radius_mm: [20.0, 35.0], haustra_spacing_mm: 30.0, haustra_depth_mm: 4.0, jitter_mm: 10.0, seed: 0, narrowings: Vec::new() }
     }
 }
 
@@ -496,7 +525,7 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
         for k in 0..b {
             let a = TAU * k as f64 / b as f64;
             let dir = nrm[i] * a.cos() + bin * a.sin();
-            let r = rm.radius(arc[i], a);
+            let r = params.narrowings.iter().fold(rm.radius(arc[i], a), |r, n| n.apply(arc[i], r));
             radial.push(lumen_import::geom::f3(dir * r));
         }
     }

@@ -40,28 +40,55 @@ mod rng;
 pub use colon::{generate, ColonParams};
 pub use endoscope::{colonoscopy_scene, Frame, Insertion};
 
-/// The colons the scenes offer: the generated one (the default everywhere) and the real GCA
-/// colon ([`gca`]).
+/// The colons the scenes offer: the generated one (the default everywhere), its hard variants,
+/// and the real GCA colon ([`gca`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ColonKind {
     /// [`colon::generate`]: seeded, 1.5 m, rings every 1.2 mm by default.
     #[default]
     Generated,
+    /// The generated colon narrowed below a colonoscope's diameter ([`NARROW`]): in the anal
+    /// canal and in the sigmoid, where the scope must push the wall open.
+    Narrow,
+    /// The generated colon with a collapsed segment in the sigmoid ([`COLLAPSED`]).
+    Collapsed,
     /// The Edinburgh Gut Cell Atlas colon EdinGCA_3D_00090 ([`gca::load`]).
     Gca,
 }
 
+/// The narrowings of [`ColonKind::Narrow`]: the anal canal (4.5 mm radius over 30 mm, 30 mm in)
+/// and a spastic segment of the sigmoid (5 mm over 40 mm, 200 mm in), both where the scripted
+/// colonoscopy's scope passes; a 13 mm scope has radius 6.5.
+pub const NARROW: [colon::Narrowing; 2] = [colon::Narrowing { at_mm: 30.0, radius_mm: 4.5, length_mm: 30.0 }, colon::Narrowing { at_mm: 200.0, radius_mm: 5.0, length_mm: 40.0 }];
+
+/// The collapse of [`ColonKind::Collapsed`]: 3 mm radius over 60 mm, 150 mm in (the scope lies
+/// through it all the colonoscopy long).
+pub const COLLAPSED: [colon::Narrowing; 1] = [colon::Narrowing { at_mm: 150.0, radius_mm: 3.0, length_mm: 60.0 }];
+
 impl ColonKind {
     /// Every kind, in the order reports list them.
-    pub const ALL: [ColonKind; 2] = [ColonKind::Generated, ColonKind::Gca];
+    pub const ALL: [ColonKind; 4] = [ColonKind::Generated, ColonKind::Narrow, ColonKind::Collapsed, ColonKind::Gca];
 
-    /// `generated` or `gca`.
+    /// `generated`, `narrow`, `collapsed` or `gca`.
     pub fn name(self) -> &'static str {
         match self {
             ColonKind::Generated => "generated",
+            ColonKind::Narrow => "narrow",
+            ColonKind::Collapsed => "collapsed",
             ColonKind::Gca => "gca",
         }
+    }
+
+    /// The generator's parameters of a generated kind with `seed` (`None` for the GCA colon).
+    pub fn generated(self, seed: u64) -> Option<ColonParams> {
+        let narrowings = match self {
+            ColonKind::Generated => vec![],
+            ColonKind::Narrow => NARROW.to_vec(),
+            ColonKind::Collapsed => COLLAPSED.to_vec(),
+            ColonKind::Gca => return None,
+        };
+        Some(ColonParams { narrowings, ..ColonParams::seeded(seed) })
     }
 }
 
@@ -73,7 +100,7 @@ impl std::fmt::Display for ColonKind {
 
 /// A colon name that is neither `generated` nor `gca`.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown colon {0:?}: use generated or gca")]
+#[error("unknown colon {0:?}: use generated, narrow, collapsed or gca")]
 pub struct UnknownColon(pub String);
 
 impl std::str::FromStr for ColonKind {

@@ -119,3 +119,39 @@ fn same_seed_same_bytes_different_seed_different_colon() {
     assert_eq!(a.points[0], [0.0, 0.0, 0.0]);
     assert_eq!(c.points[0], [0.0, 0.0, 0.0]);
 }
+
+#[test]
+fn the_hard_variants_narrow_the_lumen_where_they_say_and_nowhere_else() {
+    use lumen_scene::ColonKind;
+    let base = generate(&ColonKind::Generated.generated(1).unwrap());
+    for (kind, places) in [(ColonKind::Narrow, lumen_scene::NARROW.to_vec()), (ColonKind::Collapsed, lumen_scene::COLLAPSED.to_vec())] {
+        let t = generate(&kind.generated(1).unwrap());
+        assert_eq!(t.points, base.points, "{kind}: the same midline");
+        let arc = |i: usize| i as f32 * 1.2;
+        for i in 0..t.rings() {
+            let s = arc(i);
+            let inside = places.iter().find(|n| (s - n.at_mm).abs() <= 0.5 * n.length_mm);
+            let near = places.iter().any(|n| (s - n.at_mm).abs() <= 0.5 * n.length_mm + lumen_scene::colon::NARROWING_RAMP_MM as f32);
+            for k in 0..t.spokes {
+                let (r, r0) = (norm(t.spoke(i, k)), norm(base.spoke(i, k)));
+                match inside {
+                    // The whole section at the narrowing's radius (all of them below the base's).
+                    Some(n) => assert!((r - n.radius_mm).abs() < 1e-4, "{kind} ring {i}: {r} mm, expected {}", n.radius_mm),
+                    // Easing between the narrowing and the base lumen, never wider than the base.
+                    None if near => assert!(r <= r0 + 1e-4, "{kind} ring {i}: {r} > {r0}"),
+                    None => assert_eq!(r, r0, "{kind} ring {i} is untouched"),
+                }
+            }
+        }
+        // Below a 13 mm scope's radius where they say, so the sim's fit check finds them.
+        let runs = lumen_import::fit::narrowings(&t, 6.5);
+        assert_eq!(runs.len(), places.len(), "{kind}: {runs:?}");
+        for (run, n) in runs.iter().zip(&places) {
+            let centre = 0.5 * (arc(*run.rings.start()) + arc(*run.rings.end()));
+            assert!((centre - n.at_mm).abs() < 5.0 && (run.smallest - n.radius_mm as f64).abs() < 1e-4, "{kind}: {run:?} for {n:?}");
+        }
+    }
+    assert!(lumen_import::fit::narrowings(&base, 6.5).is_empty(), "the base colon is wider than the scope everywhere");
+    assert_eq!("narrow".parse::<ColonKind>(), Ok(ColonKind::Narrow));
+    assert!("narrowed".parse::<ColonKind>().unwrap_err().to_string().contains("narrow, collapsed"));
+}

@@ -151,11 +151,12 @@ pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
     spec
 }
 
-/// The colon of `kind`: the generated one of `seed` (1.5 m), or the GCA colon from `data` (its
-/// files' folder, or the default place); the error says what is missing.
+/// The colon of `kind`: the generated one of `seed` (1.5 m) or one of its hard variants, or the
+/// GCA colon from `data` (its files' folder, or the default place); the error says what is
+/// missing.
 pub fn colon(kind: ColonKind, seed: u64, data: Option<&Path>) -> Result<Tube, GcaError> {
-    match kind {
-        ColonKind::Generated => Ok(generated_colon(seed, 1500.0)),
-        ColonKind::Gca => gca_colon(data),
+    match kind.generated(seed) {
+        Some(p) => Ok(generate(&ColonParams { length_mm: 1500.0, ..p })),
+        None => gca_colon(data),
     }
 }

@@ -28,7 +28,8 @@ pub struct RunArgs {
     /// Frames to run (1 ms of simulated time each; the default script is 3,000).
     #[arg(long, default_value_t = 3000)]
     pub frames: u64,
-    /// The colon.
+    /// The colon: generated, its hard variants narrow (below the scope's diameter in the anal
+    /// canal and the sigmoid) and collapsed (a collapsed sigmoid segment), or gca.
     #[arg(long, default_value = "generated")]
     pub scene: ColonKind,
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).

@@ -135,9 +135,9 @@ fn main() {
     }
     let scene = a.scene.name();
     let t0 = Instant::now();
-    let colon = match a.scene {
-        ColonKind::Generated => setup::generated_colon(a.seed, a.length),
-        ColonKind::Gca => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
+    let colon = match a.scene.generated(a.seed) {
+        Some(p) => lumen_scene::generate(&lumen_scene::ColonParams { length_mm: a.length, ..p }),
+        None => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
             eprintln!("{e}");
             std::process::exit(2)
         }),
