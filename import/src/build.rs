@@ -88,7 +88,7 @@ pub struct ImportReport {
     /// Rays that hit nothing.
     pub missed: usize,
     /// Rays whose first hit was a wall seen from outside (the midline point is outside the
-    /// surface there, or two surfaces overlap). Only when the surface is closed and oriented.
+    /// surface there, or two surfaces overlap). Only when the surface is oriented (`oriented`).
     pub from_outside: usize,
     /// Rays that reached a neighbouring loop (the hit is much nearer a part of the midline far
     /// along the arc than this ring's point: the colon touches itself and the surface has a gap).
