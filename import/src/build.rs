@@ -239,11 +239,10 @@ fn duplicated_triangles(mesh: &Mesh) -> std::collections::HashSet<u32> {
     let mut first: HashMap<[[u32; 3]; 3], u32> = HashMap::with_capacity(mesh.triangles.len());
     let mut dup = std::collections::HashSet::new();
     for (n, t) in mesh.triangles.iter().enumerate() {
-        if let Some(&m) = first.get(&key(t)) {
+        let m = *first.entry(key(t)).or_insert(n as u32);
+        if m != n as u32 {
             dup.insert(m);
             dup.insert(n as u32);
-        } else {
-            first.insert(key(t), n as u32);
         }
     }
     dup

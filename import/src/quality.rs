@@ -136,7 +136,7 @@ pub fn assess(r: &ImportReport, limits: &Thresholds) -> Vec<Problem> {
             vec![],
         );
     }
-    if !r.oriented && r.orientation_agreement < limits.orientation {
+    if r.orientation_agreement < limits.orientation {
         add(
             Cause::Orientation,
             format!(
