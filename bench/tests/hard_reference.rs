@@ -397,3 +397,48 @@ fn nearest_reports_no_wall_past_a_fold_crest() {
     assert_eq!(on.reported, 0, "nearest: contacts where the wall is 0.5 away");
     assert!(on.missed.is_empty());
 }
+
+/// A straight tube along +x whose sections are ellipses of semi-axes `a` (y) and `b` (z).
+fn elliptic(a: f32, b: f32) -> Tube {
+    tube(
+        31,
+        32,
+        |i| [i as f32 * 2.0, 0.0, 0.0],
+        |_, k| {
+            let t = k as f32 * TAU / 32.0;
+            [0.0, a * t.cos(), b * t.sin()]
+        },
+    )
+}
+
+#[test]
+fn a_scope_wider_than_the_lumen_is_held_all_around() {
+    // A collapsed segment: a round lumen of radius 4 around a scope of radius 6 (near its
+    // midline, 0.3 off), and a flattened one (12 by 5) with the scope 3 off the midline along
+    // the wide axis, where its own sector's wall is 9 away and the walls pressing on it lie a
+    // quarter turn round.
+    for (colon, (dy, dz), label) in [(straight(31, 2.0, 4.0, 32), (0.3, 0.1), "round"), (elliptic(12.0, 5.0), (3.0, 0.0), "flat")] {
+        let scope = line([10.0, dy, dz], [50.0, dy, dz], 9, 6.0);
+        for nearest in [false, true] {
+            let cs = with_nearest(&colon, &scope, nearest);
+            let a = agree(&colon, &scope, 4, &cs, 0.05);
+            let tag = format!("{label}, nearest {nearest}");
+            assert!(a.missed.is_empty(), "{tag}: missed {:?}", a.missed);
+            assert!(a.worst < 0.05, "{tag}: depth error {}", a.worst);
+            assert!(a.worst_normal < 6f32.to_radians(), "{tag}: normal error {} deg", a.worst_normal.to_degrees());
+            assert!(a.second_off < 0.05, "{tag}: other walls off by {}", a.second_off);
+            assert!(a.second_normal < 6f32.to_radians(), "{tag}: other walls' normals off by {} deg", a.second_normal.to_degrees());
+            // Every sample is held from opposite sides: its normals do not all lie in one half.
+            for s in 0..33u32 {
+                let ns: Vec<[f32; 3]> = cs.iter().filter(|c| c.sample == s).map(|c| c.normal).collect();
+                let opposed = ns.iter().any(|m| ns.iter().any(|n| dot(*m, *n) < -0.9));
+                assert!(opposed, "{tag}: sample {s} held from one side only: {ns:?}");
+                if label == "round" {
+                    assert_eq!(ns.len(), 4, "{tag}: sample {s}: a wall each quarter turn: {ns:?}");
+                    let sum = ns.iter().fold([0.0; 3], |acc, n| add(acc, *n));
+                    assert!(norm(sum) < 0.5, "{tag}: sample {s}: pushed to one side: {ns:?}");
+                }
+            }
+        }
+    }
+}

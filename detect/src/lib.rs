@@ -7,9 +7,11 @@
 //! - [`samples`]: rod samples, `x` per segment.
 //! - [`section`]: tube coordinates and the signed gap to the wall.
 //! - [`nearest`]: the nearest point of the continuous wall, from a section reading.
+//! - [`around`]: every other wall of a sample's own section within reach, all around it.
 //! - [`narrow`]: one job per pair, from located samples to contacts.
 //! - [`detector`]: the per-scene object that runs a frame.
 
+pub mod around;
 pub mod broad;
 pub mod detector;
 pub mod model;

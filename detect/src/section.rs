@@ -53,7 +53,20 @@ pub struct TubeCache {
     cubic: Vec<Cubic>,
     ring_stamp: Vec<u32>,
     ring: Vec<Ring>,
+    inner_stamp: Vec<u32>,
+    inner: Vec<Inner>,
     pub alpha: f32,
+}
+
+/// What bounds how near its midline point a segment's wall comes, in any of its sections
+/// ([`TubeCache::inner_bound`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct Inner {
+    /// Least distance from the control point to ring `seg`'s wall edges, and ring `seg + 1`'s.
+    ring0: f32,
+    ring1: f32,
+    /// Largest change of one spoke from ring `seg` to ring `seg + 1`.
+    delta: f32,
 }
 
 /// Where a point is along the tube.
@@ -224,6 +237,9 @@ impl TubeCache {
             self.ring_stamp.clear();
             self.ring_stamp.resize(rings, 0);
             self.ring.resize(rings, Ring::default());
+            self.inner_stamp.clear();
+            self.inner_stamp.resize(rings.saturating_sub(1), 0);
+            self.inner.resize(rings.saturating_sub(1), Inner::default());
             self.alpha = alpha;
             self.stamp = 0;
         }
@@ -232,6 +248,7 @@ impl TubeCache {
             // Wrapped: clear so no stale entry can match.
             self.seg_stamp.iter_mut().for_each(|s| *s = 0);
             self.ring_stamp.iter_mut().for_each(|s| *s = 0);
+            self.inner_stamp.iter_mut().for_each(|s| *s = 0);
             self.stamp = 1;
         }
     }
@@ -254,6 +271,29 @@ impl TubeCache {
             self.ring_stamp[i] = self.stamp;
         }
         self.ring[i]
+    }
+
+    /// A lower bound on the distance from the midline point of segment `seg`'s section at `u`
+    /// to every point of that section's wall edges (scene's unit; 0 where none can be given).
+    ///
+    /// A wall point of the section is `E = (1 - u) E0 + u E1`, with `E0`, `E1` the points at the
+    /// same place on the edges of rings `seg` and `seg + 1` (relative to their control points),
+    /// and `|E1 - E0| <= delta`, the largest change of one spoke between them, so
+    /// `|E| >= max(inner0 - u delta, inner1 - (1 - u) delta)`. Computed once per segment and
+    /// frame, for the segments that ask (`O(B)` each).
+    pub fn inner_bound(&mut self, t: &TubeView, seg: usize, u: f32) -> f32 {
+        if self.inner_stamp[seg] != self.stamp {
+            self.inner[seg] = compute_inner(t, seg);
+            self.inner_stamp[seg] = self.stamp;
+        }
+        let Inner { ring0, ring1, delta } = self.inner[seg];
+        let bound = (ring0 - u * delta).max(ring1 - (1.0 - u) * delta);
+        // Negated on purpose: NaN (a degenerate ring) bounds nothing.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(bound > 0.0) {
+            return 0.0;
+        }
+        bound
     }
 
     fn compute_ring(&self, t: &TubeView, i: usize) -> Ring {
@@ -354,7 +394,15 @@ impl TubeCache {
     }
 
     fn gap_once(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>) -> Gap {
-        self.around(t, p, seg, u, k_guess).gap(p)
+        self.around(t, p, seg, u, k_guess, true).gap(p)
+    }
+
+    /// The signed gap of `p` in segment `seg` at `u` to strip `k` (spokes `k`, `k + 1`) alone,
+    /// whichever sector holds `p`: its face where `p` faces it, else the nearer of its tips,
+    /// read as from inside. Another wall of the section than its own sector's
+    /// ([`crate::around`]).
+    pub fn gap_in_strip(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k: usize) -> Gap {
+        self.around(t, p, seg, u, Some(k), false).gap_on_strip(p)
     }
 
     /// The signed gap of `p` in segment `seg` at `u` (no re-projection), unless every wall the
@@ -363,15 +411,16 @@ impl TubeCache {
     /// squared (no square root, no wall point); a case within rounding of `reach`, or degenerate,
     /// gets the full reading, so a point it calls clear reads `sd < -reach` there too.
     pub fn gap_or_clear(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>, reach: f32) -> Reading {
-        let a = self.around(t, p, seg, u, k_guess);
+        let a = self.around(t, p, seg, u, k_guess, true);
         match a.clear_by(p, reach) {
             Some(k) => Reading::Clear { seg, k, rho2: a.d.norm_squared(), size: a.scale },
             None => Reading::Gap(a.gap(p)),
         }
     }
 
-    /// The section at `u` of segment `seg` around `p`: its sector and the four spokes about it.
-    fn around(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>) -> Around {
+    /// The section at `u` of segment `seg` around `p`: its sector (found by a walk from
+    /// `k_guess` where `walk`, else `k_guess` itself) and the four spokes about it.
+    fn around(&mut self, t: &TubeView, p: &V3, seg: usize, u: f32, k_guess: Option<usize>, walk: bool) -> Around {
         let b = t.spokes;
         let cubic = self.cubic(t, seg);
         let (r0, r1) = (self.ring(t, seg), self.ring(t, seg + 1));
@@ -425,6 +474,9 @@ impl TubeCache {
         loop {
             s1 = o * a.cross(&q).dot(&n);
             s2 = o * q.cross(&bb).dot(&n);
+            if !walk {
+                break;
+            }
             let step = if s1 < 0.0 {
                 -1
             } else if s2 < 0.0 {
@@ -465,6 +517,32 @@ impl TubeCache {
         }
         Around { seg, u, c, cprime, n, o, d, q, k, l, idx, vs, ds, not_star, scale }
     }
+}
+
+/// The least distance from the origin to the segment from `a` to `b`.
+#[inline]
+pub(crate) fn origin_to_edge(a: V3, b: V3) -> f32 {
+    let w = b - a;
+    let ww = w.norm_squared();
+    let l = if ww > 0.0 { (-a.dot(&w) / ww).clamp(0.0, 1.0) } else { 0.0 };
+    (a + w * l).norm()
+}
+
+/// See [`TubeCache::inner_bound`]: ring `seg`'s and ring `seg + 1`'s least edge distances from
+/// their control points, and the largest change of a spoke between them.
+fn compute_inner(t: &TubeView, seg: usize) -> Inner {
+    let b = t.spokes;
+    let (mut ring0, mut ring1, mut delta2) = (f32::INFINITY, f32::INFINITY, 0.0f32);
+    let (mut a0, mut a1) = (t.spoke(seg, 0), t.spoke(seg + 1, 0));
+    for k in 0..b {
+        let kk = next(k, b);
+        let (b0, b1) = (t.spoke(seg, kk), t.spoke(seg + 1, kk));
+        ring0 = ring0.min(origin_to_edge(a0, b0));
+        ring1 = ring1.min(origin_to_edge(a1, b1));
+        delta2 = delta2.max((a1 - a0).norm_squared());
+        (a0, a1) = (b0, b1);
+    }
+    Inner { ring0, ring1, delta: delta2.sqrt() }
 }
 
 /// The tips (of spokes `0 .. 4` of [`Around::vs`]) a reading weighs, given where the point
@@ -565,6 +643,30 @@ impl Around {
         let Around { n, o, d, vs, .. } = *self;
         let inner = o * (vs[2] - vs[1]).cross(&(d - vs[1])).dot(&n);
         inner <= 0.0 || inner.is_nan()
+    }
+
+    /// The reading of strip 1 (spoke `k`'s) alone, see [`TubeCache::gap_in_strip`].
+    fn gap_on_strip(&self, p: &V3) -> Gap {
+        let Around { seg, u, c, cprime, n, d, idx, vs, ds, not_star, scale, .. } = *self;
+        let (lam, w) = self.along_strip(1);
+        let base = Gap { seg, u, not_star, rho2: d.norm_squared(), size: scale, outside: false, ..Gap::default() };
+        if (0.0..=1.0).contains(&lam) {
+            let nrm = self.face(1, lam);
+            let len = nrm.norm();
+            if len > 1e-12 * scale * scale && len > 0.0 {
+                let nf = nrm / len;
+                let h = (d - vs[1] - w * lam).dot(&nf);
+                return Gap { sd: h, normal: nf, wall: p - nf * h, k: idx[1], l: lam, ..base };
+            }
+        }
+        // Beyond an end of the strip (or a strip with no normal): its nearer tip's line.
+        let jt = if lam < 0.5 { 1 } else { 2 };
+        let tip = c + vs[jt];
+        let along = (cprime + ds[jt]).try_normalize(0.0).map_or(V3::zeros(), |dir| dir * (p - tip).dot(&dir));
+        let perp = p - tip - along;
+        let dist = perp.norm();
+        let normal = if dist > 1e-6 * scale { -perp / dist } else { (vs[jt] - n * (vs[jt].dot(&n) / n.norm_squared())).try_normalize(0.0).unwrap_or_else(|| any_perpendicular(n.normalize())) };
+        Gap { sd: -dist, normal, wall: tip + along, k: idx[jt], l: 0.0, ..base }
     }
 
     /// The full reading: the nearest of the three local strips or of the tips between them.

@@ -4,7 +4,7 @@
 
 mod common;
 use common::*;
-use lumen_detect::proto::contact::{FLAG_NOT_STAR, FLAG_OUTSIDE};
+use lumen_detect::proto::contact::{FLAG_NOT_STAR, FLAG_OTHER_WALL, FLAG_OUTSIDE};
 use lumen_detect::proto::{BodySpec, PairSpec, Shape};
 use lumen_detect::{ContactKind, Detector, InputError, Method, Scene, SceneSpec, SpecError, Tube};
 use std::f32::consts::{PI, TAU};
@@ -147,13 +147,18 @@ fn hard_rod_exactly_on_the_midline() {
     let colon = straight(10, 5.0, 10.0, 24);
     let cs = run(&interior(colon.clone(), line([0.0, 0.0, 0.0], [45.0, 0.0, 0.0], 10, 3.0), 4, Method::Signed));
     assert!(cs.is_empty());
-    // Just thick enough to touch the nearest edges: depth r - R cos(pi/B).
+    // Just thick enough to touch the nearest edges: depth r - R cos(pi/B), all around: a wall
+    // each quarter turn, held from every side.
     let r = 10.0 * (PI / 24.0).cos() + 0.25;
     let cs = run(&interior(colon, line([0.0, 0.0, 0.0], [45.0, 0.0, 0.0], 10, r), 4, Method::Signed));
-    assert_eq!(cs.len(), 9 * 4 + 1);
+    assert_eq!(cs.len(), (9 * 4 + 1) * 4);
     assert_finite(&cs);
     for c in &cs {
         assert!((c.depth - 0.25).abs() < 1e-4, "depth {}", c.depth);
+    }
+    for s in 0..37 {
+        let sum = cs.iter().filter(|c| c.sample == s).fold([0.0; 3], |acc, c| add(acc, c.normal));
+        assert!(norm(sum) < 0.2, "sample {s} pushed to one side: {sum:?}");
     }
 }
 
@@ -230,10 +235,19 @@ fn hard_rod_thicker_than_the_tube() {
     let colon = straight(10, 5.0, 10.0, 16);
     let cs = run(&interior(colon.clone(), line([0.0, 1.0, 0.0], [45.0, 1.0, 0.0], 6, 15.0), 2, Method::Signed));
     let want = 15.0 + polygon_sd(&section(&colon, 0), [1.0, 0.0]);
-    assert_eq!(cs.len(), 11);
-    for c in &cs {
+    // Each sample's first contact is its nearest wall; the walls a quarter and a half turn round
+    // press on it too, flagged as other walls, each deeper than the first.
+    let first: Vec<_> = cs.iter().filter(|c| c.flags & FLAG_OTHER_WALL == 0).collect();
+    assert_eq!(first.len(), 11);
+    for c in first {
         assert!((c.depth - want).abs() < 1e-4, "depth {} want {want}", c.depth);
         assert!(c.normal[1] > 0.98, "towards the nearest wall, +y: {:?}", c.normal);
+    }
+    for s in 0..11 {
+        let others: Vec<_> = cs.iter().filter(|c| c.sample == s && c.flags & FLAG_OTHER_WALL != 0).collect();
+        assert_eq!(others.len(), 3, "sample {s}");
+        assert!(others.iter().any(|c| c.normal[1] < -0.98), "sample {s}: the opposite wall: {others:?}");
+        assert!(others.iter().all(|c| c.depth < want && c.depth > 15.0 - 11.0), "sample {s}: {others:?}");
     }
 }
 

@@ -17,8 +17,9 @@ pub const MAX_PAIRS: usize = 256;
 pub const MAX_PRECISION: u32 = 64;
 /// Most axial re-projections (`refine`) of the signed method.
 pub const MAX_REFINE: u32 = 4;
-/// Most other walls an interior sample is held by besides its nearest one, each a contact
-/// flagged `FLAG_OTHER_WALL`, when the scene declares `nearest` (signed method).
+/// Most other walls an interior sample of the signed method is held by besides its nearest
+/// one, each a contact flagged `FLAG_OTHER_WALL`: walls all around it where the lumen is
+/// narrower than the rod's reach, and with `nearest` a corner's or a pocket's.
 pub const MAX_OTHER_WALLS: usize = 3;
 /// Most `f32` values in one frame's state (64 MiB of floats).
 pub const MAX_STATE_FLOATS: usize = 16 * 1024 * 1024;

@@ -103,8 +103,9 @@ impl ValidScene {
     }
 
     /// Most contacts one frame of this scene can produce: one per sample of each pair's rod
-    /// (`(points - 1) * precision + 1`), and for an interior pair of the signed method with
-    /// `nearest`, [`MAX_OTHER_WALLS`] more per sample. A reply sized for this is never cut.
+    /// (`(points - 1) * precision + 1`), and for an interior pair of the signed method,
+    /// [`MAX_OTHER_WALLS`] more per sample (the other walls within reach: a lumen narrower than
+    /// the rod, and with `nearest` a corner or a pocket). A reply sized for this is never cut.
     pub fn max_contacts(&self) -> usize {
         self.max_contacts
     }
@@ -138,7 +139,7 @@ impl ValidScene {
 /// See [`ValidScene::max_contacts`] (at least 1, so a reply buffer is never empty).
 fn max_contacts(spec: &SceneSpec, pairs: &[PairIndex]) -> usize {
     let x = spec.precision as usize;
-    let others = spec.nearest && spec.method == Method::Signed;
+    let others = spec.method == Method::Signed;
     let per_pair = |p: &PairIndex| {
         let samples = spec.bodies[p.a].points().saturating_sub(1) * x + 1;
         let per_sample = if others && p.kind == ContactKind::Interior { 1 + MAX_OTHER_WALLS } else { 1 };
@@ -181,9 +182,9 @@ mod tests {
     #[test]
     fn replies_are_sized_for_every_wall_a_sample_can_report() {
         // A 160-point scope at precision 4 (637 samples) inside a colon and against a second
-        // rod: one contact per sample and pair; with `nearest`, interior samples may add
-        // MAX_OTHER_WALLS other walls each (the daemon once cut those replies at 637 and the
-        // scope's tip lost its contacts).
+        // rod: one contact per sample and pair, and interior samples may add MAX_OTHER_WALLS
+        // other walls each, with or without `nearest` (the daemon once cut those replies at 637
+        // and the scope's tip lost its contacts).
         let mut spec = SceneSpec::new(
             vec![
                 BodySpec { name: "colon".into(), shape: Shape::Tube { rings: 10, spokes: 8 } },
@@ -193,7 +194,7 @@ mod tests {
             vec![PairSpec { a: "scope".into(), b: "colon".into(), kind: ContactKind::Interior }, PairSpec { a: "tool".into(), b: "scope".into(), kind: ContactKind::Exterior }],
         );
         let tool = 2 * 4 + 1;
-        assert_eq!(spec.validate().unwrap().max_contacts(), 637 + tool);
+        assert_eq!(spec.validate().unwrap().max_contacts(), 637 * (1 + MAX_OTHER_WALLS) + tool);
         spec.nearest = true;
         assert_eq!(spec.validate().unwrap().max_contacts(), 637 * (1 + MAX_OTHER_WALLS) + tool);
         spec.method = Method::Thesis;

@@ -142,16 +142,17 @@ mod tests {
     #[test]
     fn open_sizes_checks_and_registers() {
         let reg = Registry::new(Limits { max_sessions: 1, max_session_mib: 64, ..Limits::default() });
-        assert_eq!(spec(1250).validate().unwrap().max_contacts(), 159 * 4 + 1);
+        let others = 1 + lumen_proto::limits::MAX_OTHER_WALLS;
+        assert_eq!(spec(1250).validate().unwrap().max_contacts(), (159 * 4 + 1) * others);
         let ControlReply::Opened(info) = handle(&reg, Transport::Iceoryx2, open_req(spec(1250)), |_| Ok(())) else { panic!() };
-        assert_eq!((info.floats, info.max_contacts), (1250 * 33 * 3 + 480, 637));
-        // With `nearest`, every interior sample may report up to MAX_OTHER_WALLS more walls:
-        // the reply is sized for them, not cut at one per sample.
+        assert_eq!((info.floats, info.max_contacts as usize), (1250 * 33 * 3 + 480, 637 * others));
+        // Every interior sample may report up to MAX_OTHER_WALLS more walls, with `nearest` or
+        // not: the reply is sized for them, not cut at one per sample.
         let mut nearest = spec(1250);
         nearest.nearest = true;
         let roomy = Registry::new(Limits::default());
         let ControlReply::Opened(wide) = handle(&roomy, Transport::Iceoryx2, open_req(nearest), |_| Ok(())) else { panic!() };
-        assert_eq!(wide.max_contacts as usize, 637 * (1 + lumen_proto::limits::MAX_OTHER_WALLS));
+        assert_eq!(wide.max_contacts as usize, 637 * others);
         assert_eq!(info.frame, format!("lumen/session/{}/frame", info.session));
         // Full: the second is refused as busy, with the limit named.
         let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Ok(())) else { panic!() };

@@ -5,6 +5,7 @@
 //! normal is the wall's.
 
 use super::{Emit, SignedParams, NEAREST_REACH};
+use crate::around::{merge, walls_around};
 use crate::broad::track::{Track, Walk};
 use crate::broad::{Counters, TubeFrame};
 use crate::nearest::{nearest, MAX_OTHERS};
@@ -62,27 +63,34 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         // sample's own section holds it.
         let end = s == 0 || s + 1 == rod.len();
         // Most samples lie well inside: those only need their sector for next frame.
+        // A sample clear of its own sector's wall is clear of the section's only where no wall on
+        // its far side can be within reach either ([`crate::around`]).
         let read = |cache: &mut TubeCache, t: &TubeView, seg: usize, u: f32, k_guess: Option<usize>| {
             if params.refine == 0 && !(params.nearest && end) {
-                cache.gap_or_clear(t, &p, seg, u, k_guess, r + clear)
+                match cache.gap_or_clear(t, &p, seg, u, k_guess, r + clear) {
+                    Reading::Clear { k, .. } if cache.inner_bound(t, seg, u) < r + emit.margin => Reading::Gap(cache.gap(t, &p, seg, u, Some(k), 0)),
+                    read => read,
+                }
             } else {
                 Reading::Gap(cache.gap(t, &p, seg, u, k_guess, params.refine))
             }
         };
         // A clear sample keeps only its place, as a gap deeper than the margin would: no contact.
         let Some(Reading::Gap(mut g)) = walk.locate(&mut tube, &p, r, &mut tracks[s], counters, read) else { continue };
+        let around = walls_around(&tube.view, tube.cache, &p, &mut g, r + emit.margin);
         let mut others = [None; MAX_OTHERS];
         if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || end) {
             let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, end);
             (g, others) = (near.first, near.others);
         }
+        merge(g.normal, &mut others, &around);
         let depth = g.sd + r;
         if depth > -emit.margin {
             out.push(emit.on_tube(rod, s, &g, depth, g.normal, tube.view.spokes));
         }
-        // Other walls within the margin (a corner, a pocket): a contact each, so the sample is
-        // held by all of them.
-        for g2 in others.iter().flatten() {
+        // Other walls within the margin (a corner, a pocket, a lumen narrower than the rod): a
+        // contact each, so the sample is held by all of them.
+        for g2 in others.iter().flatten().filter(|o| o.sd + r > -emit.margin) {
             let mut c = emit.on_tube(rod, s, g2, g2.sd + r, g2.normal, tube.view.spokes);
             c.flags |= FLAG_OTHER_WALL;
             out.push(c);
