@@ -150,11 +150,16 @@ proptest! {
         let a = run(&interior(t, r.clone(), 3, Method::Signed));
         let b = run(&interior(t2, r2, 3, Method::Signed));
         // Each sample's first contact, its nearest wall (other walls follow it, flagged).
-        let depth_of = |cs: &[Contact], s: u32| cs.iter().find(|c| c.sample == s && c.flags & FLAG_OTHER_WALL == 0).map(|c| c.depth);
+        let first_of = |cs: &[Contact], s: u32| cs.iter().find(|c| c.sample == s && c.flags & FLAG_OTHER_WALL == 0).copied();
+        let depth_of = |cs: &[Contact], s: u32| first_of(cs, s).map(|c| c.depth);
+        // The wall is only C0 across a ring (its slope along the tube changes there): a sample
+        // within rounding of a ring's plane is read on either side of that crease.
+        let crease = |c: &Contact| c.param_b < 1e-4 || c.param_b > 1.0 - 1e-4;
         let (a, b) = (firsts(&a), firsts(&b));
         for c in &a {
-            match depth_of(&b, c.sample) {
-                Some(d) => prop_assert!((d - c.depth).abs() < tol, "sample {}: {} vs {}", c.sample, c.depth, d),
+            match first_of(&b, c.sample) {
+                Some(d) if crease(c) || crease(&d) => prop_assert!((d.depth - c.depth).abs() < 0.02 * (1.0 + r.radius[0]), "sample {} on a ring: {} vs {}", c.sample, c.depth, d.depth),
+                Some(d) => prop_assert!((d.depth - c.depth).abs() < tol, "sample {}: {} vs {}", c.sample, c.depth, d.depth),
                 None => prop_assert!(c.depth < tol, "sample {} lost after the motion (depth {})", c.sample, c.depth),
             }
         }

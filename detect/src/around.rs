@@ -24,9 +24,10 @@
 //! own, such as a fold pressing in), else the strip nearest the quadrant's centre direction (on
 //! a wall that curves evenly round the sample, as a collapsed lumen's does, the four walls then
 //! sit a quarter turn apart and hold it from every side, not all from the side it leans to).
-//! Each is read on its own strip ([`TubeCache::gap_in_strip`]: the strip's normal, sloped along
-//! the tube) and kept if it lies more than [`OTHER_ANGLE_DEG`] from the first and from each
-//! other: up to three other walls.
+//! Each is its wall point itself, at its distance, with the direction to it as its normal (a
+//! tangent plane there would pass nearer than the wall where it slopes along the tube, and
+//! push on a wall that is not there), kept if it lies more than [`OTHER_ANGLE_DEG`] from the
+//! first and from each other: up to three other walls.
 //!
 //! **When.** Only where some wall of the section may lie within reach on the far side: a wall
 //! point `E` with `E . d <= 0` lies at least `|E|` from the sample (`|E - d|^2 = |E|^2 + |d|^2
@@ -59,7 +60,7 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
     let spoke = |k: usize| t.spoke(seg, k) * (1.0 - u) + t.spoke(seg + 1, k) * u;
     // Each strip's nearest point to the sample, as the direction to it, its squared distance,
     // and whether it lies inside the strip (a foot facing the sample, not one of its ends).
-    let mut near = [(V3::zeros(), f32::INFINITY, false); MAX_SPOKES];
+    let mut near = [(V3::zeros(), f32::INFINITY, false, 0.0f32); MAX_SPOKES];
     let mut nearest = (f32::INFINITY, usize::MAX);
     let mut va = spoke(0);
     for (k, slot) in near.iter_mut().enumerate().take(b) {
@@ -68,7 +69,7 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
         let ww = w.norm_squared();
         let l = if ww > 0.0 { (d - va).dot(&w) / ww } else { 0.0 };
         let e = va + w * l.clamp(0.0, 1.0) - d;
-        *slot = (e, e.norm_squared(), l > 0.0 && l < 1.0);
+        *slot = (e, e.norm_squared(), l > 0.0 && l < 1.0, l.clamp(0.0, 1.0));
         if slot.1 < nearest.0 {
             nearest = (slot.1, k);
         }
@@ -95,7 +96,7 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
     let within2 = within * within;
     let mut pick = [(2u8, f32::INFINITY, usize::MAX); 3];
     for k in 0..b {
-        let (e, e2, facing) = near[k];
+        let (e, e2, facing, _) = near[k];
         if !facing || e2 >= within2 || e2 <= 0.0 {
             continue;
         }
@@ -110,19 +111,17 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
             pick[q] = (key.0, key.1, k);
         }
     }
-    let best = pick.map(|(_, _, k)| (0.0f32, k));
     let cos = OTHER_ANGLE_DEG.to_radians().cos();
     let mut taken = [first.normal; 1 + MAX_OTHERS];
     let mut n_taken = 1;
     let mut found = [None; 3];
-    for (slot, &(_, k)) in found.iter_mut().zip(&best) {
+    for (slot, &(_, _, k)) in found.iter_mut().zip(&pick) {
         if k != usize::MAX {
-            let g = cache.gap_in_strip(t, p, seg, u, k);
-            // Negated on purpose: a NaN depth is no wall.
-            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            if g.sd < 0.0 && !(g.sd.abs() > within) {
-                *slot = Some(g);
-            }
+            // The wall point itself: a tangent plane there would pass nearer than the wall
+            // where it slopes along the tube, and push on a wall that is not there.
+            let (e, e2, _, l) = near[k];
+            let len = e2.sqrt();
+            *slot = Some(Gap { sd: -len, normal: e / len, wall: p + e, seg, u, k, l, not_star: first.not_star, rho2: d.norm_squared(), size: first.size, outside: false });
         }
     }
     found.sort_unstable_by(|a, b| a.map_or(f32::INFINITY, |g| -g.sd).total_cmp(&b.map_or(f32::INFINITY, |g| -g.sd)));

@@ -182,6 +182,9 @@ struct Around {
     scale: f32,
 }
 
+/// Segments either side of a sample's own that [`TubeCache::slope_near`] reads at most.
+pub const SLOPE_SEGMENTS: usize = 16;
+
 /// Where a point at signed distances `d0` and `d1` from the planes of rings `i` and `i + 1`
 /// (`d0 >= 0 >= d1`: they bracket it) lies along segment `i`: `u = d0 / (d0 - d1)`.
 #[inline]
@@ -294,6 +297,32 @@ impl TubeCache {
             return 0.0;
         }
         bound
+    }
+
+    /// A bound on how steeply the wall runs along the tube within `along` (scene's unit) of
+    /// segment `seg`: the largest change of one spoke between neighbouring rings per length of
+    /// midline between them, over the segments within reach (at most [`SLOPE_SEGMENTS`] either
+    /// side). A wall point `x` along the tube from a section lies at most `s x` nearer the
+    /// midline than that section's wall, so a point `D` from its section's wall is at least
+    /// `D / sqrt(1 + s^2)` from the wall there (where the midline runs straight; a bend adds
+    /// the spokes' turn to `s`, which only makes the bound more cautious).
+    pub fn slope_near(&mut self, t: &TubeView, seg: usize, along: f32) -> f32 {
+        let chord = (t.point(seg + 1) - t.point(seg)).norm();
+        let n = if chord > 0.0 { ((along / chord).ceil() as usize).min(SLOPE_SEGMENTS) } else { SLOPE_SEGMENTS };
+        let (lo, hi) = (seg.saturating_sub(n), (seg + n).min(t.segments() - 1));
+        let mut s = 0.0f32;
+        for j in lo..=hi {
+            if self.inner_stamp[j] != self.stamp {
+                self.inner[j] = compute_inner(t, j);
+                self.inner_stamp[j] = self.stamp;
+            }
+            let c = (t.point(j + 1) - t.point(j)).norm();
+            // Negated on purpose: a NaN or a zero-length segment bounds nothing.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let sj = if c > 0.0 { self.inner[j].delta / c } else { f32::INFINITY };
+            s = if !(sj <= s) { sj } else { s };
+        }
+        s
     }
 
     fn compute_ring(&self, t: &TubeView, i: usize) -> Ring {

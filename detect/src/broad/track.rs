@@ -1,10 +1,13 @@
 //! Where each rod sample is along a tube, with temporal coherence.
 //!
-//! Each rod sample remembers the tube segment and sector it was in last frame and walks from
-//! there (a few ring planes at most per frame); the first sample of a rod seeds the next, so even
-//! a fresh frame walks the tube once along the rod. Only when a walk fails does the sample
-//! re-acquire through the tube's BVH. A sample outside the wall keeps its segment: it is a
-//! contact with positive depth however far out it is, and its normal is the wall's.
+//! A rod's first sample remembers the tube segment it was in last frame and walks the ring
+//! planes from there; every other sample walks from the sample before it (a plane or two, with
+//! rings about as dense as the samples), so the rod is walked along the tube once a frame, and
+//! the answer is the one a session without history gives ([`Walk::locate`]). Each sample also
+//! remembers its sector, where its sector walk starts. Only when a walk fails, or the first
+//! sample's walk reads it outside the wall, does a sample re-acquire through the tube's BVH. A
+//! sample outside the wall keeps its segment: it is a contact with positive depth however far
+//! out it is, and its normal is the wall's.
 
 use super::aabb::Aabb;
 use super::{Counters, TubeFrame};
@@ -29,33 +32,35 @@ pub struct Track {
 }
 
 /// One rod's walk along a tube in one frame, sample after sample: where the sample before
-/// ended and how far it moved along the tube since last frame.
+/// ended.
 #[derive(Debug, Clone, Copy)]
 pub struct Walk {
-    /// Segment of the sample before, the start of a sample without history.
+    /// Segment of the sample before (this frame), where the next sample's walk starts.
     neighbour: Option<usize>,
-    /// Segments the sample before moved along the tube since last frame: the scope slides as
-    /// one, so each sample's walk starts that far from where it was (with rings denser than the
-    /// scope moves per frame, the walk then crosses no plane instead of several).
-    shift: isize,
-    /// The tube's last segment.
-    last: isize,
     /// Axial re-projections of a section reading ([`TubeCache::gap`]).
     refine: u32,
 }
 
 impl Walk {
-    /// A walk along `t`, before the rod's first sample.
+    /// A walk along a tube, before the rod's first sample.
     #[inline]
-    pub fn new(t: &TubeView, refine: u32) -> Self {
-        Self { neighbour: None, shift: 0, last: t.segments() as isize - 1, refine }
+    pub fn new(refine: u32) -> Self {
+        Self { neighbour: None, refine }
     }
 
-    /// Locates sample `p` (radius `r`) from its `track` and reads it there: walks the ring
-    /// planes from last frame's segment (or the sample before's), reads it with `read`
-    /// (segment, `u`, sector guess), re-acquires through the BVH where the walk fails or lands
-    /// far from the midline, and takes a second look across folded planes where the reading
-    /// puts it outside. Updates `track`. `None`: beyond the tube's ends, or lost.
+    /// Locates sample `p` (radius `r`) and reads it there: walks the ring planes from the
+    /// sample before's segment (the first sample: from its own `track`, last frame's), reads
+    /// it with `read` (segment, `u`, sector guess), re-acquires through the BVH where the walk
+    /// fails or lands far from the midline, and takes a second look across folded planes where
+    /// the reading puts it outside. Updates `track`. `None`: beyond the tube's ends, or lost.
+    ///
+    /// **History never changes the answer.** Only the first sample walks from last frame: every
+    /// other starts from the sample before it, as in a session without history. And the first
+    /// sample's walk is trusted only where its section holds it: a reading outside the wall may
+    /// come from planes that bracket it far from where it is (the scope moved anywhere), so such
+    /// a sample is located afresh through the BVH, as a session without history locates it. The
+    /// track's sector only starts the sector walk, which ends in the same sector from any start
+    /// where the section is star-shaped.
     #[inline]
     pub fn locate(
         &mut self,
@@ -68,9 +73,10 @@ impl Walk {
     ) -> Option<Reading> {
         let t = tube.view;
         let tr = *track;
-        let guess = if tr.valid { Some((tr.seg as isize + self.shift).clamp(0, self.last) as usize) } else { self.neighbour };
+        let from_history = self.neighbour.is_none();
+        let guess = self.neighbour.or(tr.valid.then_some(tr.seg as usize));
         let mut axial = match guess {
-            Some(g) => tube.cache.axial(&t, p, g, WINDOW),
+            Some(g) => tube.cache.axial(&t, p, g.min(t.segments() - 1), WINDOW),
             None => Axial::Lost,
         };
         let mut reading = None;
@@ -81,7 +87,8 @@ impl Walk {
             // A walk that lands far from the midline has followed folded planes: re-acquire.
             let chord2 = (t.point(seg + 1) - t.point(seg)).norm_squared();
             let reach = 8.0 * size.max(chord2.sqrt()) + 2.0 * r;
-            if rho2 > reach * reach {
+            let outside = matches!(read, Reading::Gap(g) if g.sd > 0.0);
+            if rho2 > reach * reach || (from_history && outside) {
                 axial = Axial::Lost;
             } else {
                 reading = Some(read);
@@ -120,10 +127,8 @@ impl Walk {
             read => read,
         };
         let (at, k) = read.place();
-        // The track keeps the section's own place: it is where next frame's walk starts.
-        // A sample that had to re-acquire (it jumped, or its loop touches another) says
-        // nothing about how the next one moved.
-        self.shift = if tr.valid && walked { at as isize - tr.seg as isize } else { 0 };
+        // The track keeps the section's own place: where the first sample's walk starts next
+        // frame, and every sample's sector walk.
         *track = Track { seg: at as u32, sector: k as u16, valid: true };
         self.neighbour = Some(at);
         Some(read)

@@ -10,7 +10,7 @@ use crate::broad::track::{Track, Walk};
 use crate::broad::{Counters, TubeFrame};
 use crate::nearest::{nearest, MAX_OTHERS};
 use crate::samples::RodSamples;
-use crate::section::{Reading, TubeCache};
+use crate::section::{Gap, Reading, TubeCache};
 use crate::view::TubeView;
 use lumen_proto::contact::FLAG_OTHER_WALL;
 use lumen_proto::Contact;
@@ -48,7 +48,7 @@ impl RodInTube {
 
 /// Interior contacts of one rod inside one tube.
 pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], params: SignedParams, emit: &Emit, out: &mut Vec<Contact>, counters: &mut Counters) {
-    let mut walk = Walk::new(&tube.view, params.refine);
+    let mut walk = Walk::new(params.refine);
     // How far inside, beyond the rod's radius, a sample is clear: no contact, and no search
     // for the nearest wall (which starts within NEAREST_REACH margins).
     let clear = emit.margin * if params.nearest { NEAREST_REACH } else { 1.0 };
@@ -67,7 +67,9 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         // its far side can be within reach either ([`crate::around`]).
         let read = |cache: &mut TubeCache, t: &TubeView, seg: usize, u: f32, k_guess: Option<usize>| {
             if params.refine == 0 && !(params.nearest && end) {
-                match cache.gap_or_clear(t, &p, seg, u, k_guess, r + clear) {
+                // With `nearest`, a wall along the tube may be nearer than the section's by its slope.
+                let reach = if params.nearest { (r + clear) * (1.0 + cache.slope_near(t, seg, r + clear).powi(2)).sqrt() } else { r + clear };
+                match cache.gap_or_clear(t, &p, seg, u, k_guess, reach) {
                     Reading::Clear { k, .. } if cache.inner_bound(t, seg, u) < r + emit.margin => Reading::Gap(cache.gap(t, &p, seg, u, Some(k), 0)),
                     read => read,
                 }
@@ -79,7 +81,14 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         let Some(Reading::Gap(mut g)) = walk.locate(&mut tube, &p, r, &mut tracks[s], counters, read) else { continue };
         let around = walls_around(&tube.view, tube.cache, &p, &mut g, r + emit.margin);
         let mut others = [None; MAX_OTHERS];
-        if params.nearest && (g.sd + r > -NEAREST_REACH * emit.margin || end) {
+        // The nearest wall is sought where it may lie within reach: the section's wall itself,
+        // or a wall along the tube as near as the wall's slope there allows.
+        let seek = |cache: &mut TubeCache, g: &Gap| {
+            let reach = r + NEAREST_REACH * emit.margin;
+            let s = cache.slope_near(&tube.view, g.seg, reach);
+            g.sd > -reach || -g.sd < reach * (1.0 + s * s).sqrt()
+        };
+        if params.nearest && (end || seek(tube.cache, &g)) {
             let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, end);
             (g, others) = (near.first, near.others);
         }
