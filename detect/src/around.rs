@@ -29,12 +29,16 @@
 //! push on a wall that is not there), kept if it lies more than [`OTHER_ANGLE_DEG`] from the
 //! first and from each other: up to three other walls.
 //!
-//! **When.** Only where some wall of the section may lie within reach on the far side: a wall
+//! **When.** Only where some wall of the section may touch the sample on its far side: a wall
 //! point `E` with `E . d <= 0` lies at least `|E|` from the sample (`|E - d|^2 = |E|^2 + |d|^2
 //! - 2 E . d`), and `|E|` is bounded below per segment ([`TubeCache::inner_bound`]). Where that
-//! bound is not below the reach, the sample's own side is the first reading's (and, with the
-//! scene's `nearest`, the descents' [`crate::nearest::Near::others`]). On a colon wider than the
-//! scope this is a comparison per sample; the scan costs `O(B)` where the lumen is narrow.
+//! bound is not below the rod's radius, the lumen is nowhere narrower than the rod there, and
+//! the sample's own side is the first reading's (and, with the scene's `nearest`, the
+//! descents' [`crate::nearest::Near::others`]). On a colon wider than the scope this is a
+//! comparison per sample; the scan costs `O(B)` where the lumen is narrow. (Scanning wherever a
+//! wall may come within the contact margin instead, 2 mm in the colonoscopy, adds side contacts
+//! along every fold of the real colon that touch nothing, and its scope's tip then went 0.17 mm
+//! deeper: docs/measurements.md.)
 
 use crate::nearest::{MAX_OTHERS, OTHER_ANGLE_DEG};
 use crate::section::{any_perpendicular, next, prev, Gap, TubeCache};
@@ -43,13 +47,14 @@ use crate::V3;
 use lumen_proto::limits::MAX_SPOKES;
 
 /// The walls of `p`'s own section within `within` of it (scene's unit) besides its first
-/// reading: `first` becomes the section's nearest wall where a strip outside its sector is
-/// nearer (a continuous choice: the least distance over every strip), and the others are
-/// returned, at most one a quadrant about it, each more than [`OTHER_ANGLE_DEG`] from the
-/// first's normal and from each other's, nearest first. Nothing for a point outside the wall.
-pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap, within: f32) -> [Option<Gap>; MAX_OTHERS] {
+/// reading, where a wall of the section may lie within `touch` (the rod's radius) on its far
+/// side: `first` becomes the section's nearest wall where a strip outside its sector is nearer
+/// (a continuous choice: the least distance over every strip), and the others are returned, at
+/// most one a quadrant about it, each more than [`OTHER_ANGLE_DEG`] from the first's normal and
+/// from each other's, nearest first. Nothing for a point outside the wall.
+pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap, touch: f32, within: f32) -> [Option<Gap>; MAX_OTHERS] {
     let mut out = [None; MAX_OTHERS];
-    if first.outside || first.sd > 0.0 || cache.inner_bound(t, first.seg, first.u) >= within {
+    if first.outside || first.sd > 0.0 || cache.inner_bound(t, first.seg, first.u) >= touch {
         return out;
     }
     let (seg, u) = (first.seg, first.u);

@@ -67,6 +67,9 @@ struct Inner {
     ring1: f32,
     /// Largest change of one spoke from ring `seg` to ring `seg + 1`.
     delta: f32,
+    /// `delta` per length of midline chord between the rings (infinite for a zero chord or
+    /// a NaN): the wall's slope along the tube, bounded ([`TubeCache::slope_near`]).
+    slope: f32,
 }
 
 /// Where a point is along the tube.
@@ -285,11 +288,7 @@ impl TubeCache {
     /// `|E| >= max(inner0 - u delta, inner1 - (1 - u) delta)`. Computed once per segment and
     /// frame, for the segments that ask (`O(B)` each).
     pub fn inner_bound(&mut self, t: &TubeView, seg: usize, u: f32) -> f32 {
-        if self.inner_stamp[seg] != self.stamp {
-            self.inner[seg] = compute_inner(t, seg);
-            self.inner_stamp[seg] = self.stamp;
-        }
-        let Inner { ring0, ring1, delta } = self.inner[seg];
+        let Inner { ring0, ring1, delta, .. } = self.inner_of(t, seg);
         let bound = (ring0 - u * delta).max(ring1 - (1.0 - u) * delta);
         // Negated on purpose: NaN (a degenerate ring) bounds nothing.
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -312,17 +311,19 @@ impl TubeCache {
         let (lo, hi) = (seg.saturating_sub(n), (seg + n).min(t.segments() - 1));
         let mut s = 0.0f32;
         for j in lo..=hi {
-            if self.inner_stamp[j] != self.stamp {
-                self.inner[j] = compute_inner(t, j);
-                self.inner_stamp[j] = self.stamp;
-            }
-            let c = (t.point(j + 1) - t.point(j)).norm();
-            // Negated on purpose: a NaN or a zero-length segment bounds nothing.
-            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            let sj = if c > 0.0 { self.inner[j].delta / c } else { f32::INFINITY };
-            s = if !(sj <= s) { sj } else { s };
+            s = s.max(self.inner_of(t, j).slope);
         }
         s
+    }
+
+    /// Segment `seg`'s [`Inner`], computed once a frame.
+    #[inline]
+    fn inner_of(&mut self, t: &TubeView, seg: usize) -> Inner {
+        if self.inner_stamp[seg] != self.stamp {
+            self.inner[seg] = compute_inner(t, seg);
+            self.inner_stamp[seg] = self.stamp;
+        }
+        self.inner[seg]
     }
 
     fn compute_ring(&self, t: &TubeView, i: usize) -> Ring {
@@ -571,7 +572,13 @@ fn compute_inner(t: &TubeView, seg: usize) -> Inner {
         delta2 = delta2.max((a1 - a0).norm_squared());
         (a0, a1) = (b0, b1);
     }
-    Inner { ring0, ring1, delta: delta2.sqrt() }
+    let delta = delta2.sqrt();
+    let chord = (t.point(seg + 1) - t.point(seg)).norm();
+    let slope = delta / chord;
+    // Negated on purpose: a NaN or a zero chord bounds nothing.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    let slope = if !(slope < f32::INFINITY) { f32::INFINITY } else { slope };
+    Inner { ring0, ring1, delta, slope }
 }
 
 /// The tips (of spokes `0 .. 4` of [`Around::vs`]) a reading weighs, given where the point

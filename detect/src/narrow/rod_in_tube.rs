@@ -64,13 +64,13 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         let end = s == 0 || s + 1 == rod.len();
         // Most samples lie well inside: those only need their sector for next frame.
         // A sample clear of its own sector's wall is clear of the section's only where no wall on
-        // its far side can be within reach either ([`crate::around`]).
+        // its far side can touch it either ([`crate::around`]).
         let read = |cache: &mut TubeCache, t: &TubeView, seg: usize, u: f32, k_guess: Option<usize>| {
             if params.refine == 0 && !(params.nearest && end) {
                 // With `nearest`, a wall along the tube may be nearer than the section's by its slope.
                 let reach = if params.nearest { (r + clear) * (1.0 + cache.slope_near(t, seg, r + clear).powi(2)).sqrt() } else { r + clear };
                 match cache.gap_or_clear(t, &p, seg, u, k_guess, reach) {
-                    Reading::Clear { k, .. } if cache.inner_bound(t, seg, u) < r + emit.margin => Reading::Gap(cache.gap(t, &p, seg, u, Some(k), 0)),
+                    Reading::Clear { k, .. } if cache.inner_bound(t, seg, u) < r => Reading::Gap(cache.gap(t, &p, seg, u, Some(k), 0)),
                     read => read,
                 }
             } else {
@@ -79,7 +79,7 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         };
         // A clear sample keeps only its place, as a gap deeper than the margin would: no contact.
         let Some(Reading::Gap(mut g)) = walk.locate(&mut tube, &p, r, &mut tracks[s], counters, read) else { continue };
-        let around = walls_around(&tube.view, tube.cache, &p, &mut g, r + emit.margin);
+        let around = walls_around(&tube.view, tube.cache, &p, &mut g, r, r + emit.margin);
         let mut others = [None; MAX_OTHERS];
         // The nearest wall is sought where it may lie within reach: the section's wall itself,
         // or a wall along the tube as near as the wall's slope there allows.
