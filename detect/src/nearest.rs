@@ -168,7 +168,11 @@ pub const OTHER_ANGLE_DEG: f32 = 30.0;
 /// (docs/decisions/detect.md).
 pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32, within: f32, scan: bool) -> Near {
     let side = if from.outside { 1.0 } else { -1.0 };
-    let mut probe = Probe { t, cache, p, tol: 1e-4 * from.size.max(1e-6), side };
+    // Rings within the search's distance along the tube: where they are denser than a descent's
+    // steps cover, its budget grows by them (a step stops at each ring it crosses).
+    let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm();
+    let rings = if spacing > 0.0 { ((reach + within) / spacing).ceil().min(MAX_CROSSINGS as f32) as usize } else { MAX_CROSSINGS };
+    let mut probe = Probe { t, cache, p, tol: 1e-4 * from.size.max(1e-6), side, rings };
     let start = Patch { seg: from.seg, k: from.k, u: from.u.clamp(0.0, 1.0), l: from.l.clamp(0.0, 1.0) };
     let s0 = probe.local(start);
     // The ends of descents that lost to `end`: candidates for other walls.
@@ -218,6 +222,8 @@ struct Probe<'a> {
     tol: f32,
     /// -1: the point is inside the wall (its section says), +1: outside.
     side: f32,
+    /// Rings within the search's distance along the tube (at most [`MAX_CROSSINGS`]).
+    rings: usize,
 }
 
 /// Walls found at the ends of descents (end, normal, distance), the first `n` slots filled.
@@ -289,7 +295,7 @@ impl Probe<'_> {
         let n_own = seeds.n;
         if let Some(axis) = axis {
             for f in SEEDS {
-                if let Axial::In { seg, u } = self.cache.axial(t, &(p + axis * (reach * f)), from.seg, SEED_WINDOW) {
+                if let Axial::In { seg, u } = self.cache.axial(t, &(p + axis * (reach * f)), from.seg, SEED_WINDOW.max(self.rings + 2)) {
                     self.consider(seeds, start, seg, u, keep2);
                 }
             }
@@ -418,8 +424,16 @@ fn gap_at(from: &Gap, e: &End, normal: V3, sd: f32) -> Gap {
     Gap { sd, normal, wall: e.here.s, seg: e.at.seg, u: e.at.u, k: e.at.k, l: e.at.l, ..*from }
 }
 
-/// Rings either side of the point's own that [`scan_pockets`] reads at most.
+/// Rings either side of the point's own that [`scan_pockets`] reads at most (every so many
+/// where more lie within its distance).
 pub const SCAN_RINGS: usize = 24;
+
+/// Rings within a search's reach that its descents cross without more steps.
+pub const FREE_CROSSINGS: usize = 16;
+
+/// Most rings within a search's reach that count (for the steps of a descent and the walk to
+/// a seed's section).
+pub const MAX_CROSSINGS: usize = 512;
 
 /// Pockets [`scan_pockets`] returns at most.
 pub const SCAN_SEEDS: usize = 4;
@@ -439,25 +453,29 @@ fn scan_pockets(pr: &mut Probe, from: &Gap, k0: usize, dist: f32) -> [Option<(Pa
     let (t, cache, p, side) = (pr.t, &mut *pr.cache, pr.p, pr.side);
     let (b, last) = (t.spokes, t.segments() - 1);
     let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
-    let reach = ((dist / spacing).ceil() as usize).min(SCAN_RINGS);
+    let full = ((dist / spacing).ceil() as usize).min(MAX_CROSSINGS);
+    // Every `stride`-th ring where more than SCAN_RINGS lie within the distance either side.
+    let stride = full.div_ceil(SCAN_RINGS).max(1);
+    let reach = (full / stride).min(SCAN_RINGS) * stride;
     let lo = from.seg.saturating_sub(reach);
     let hi = (from.seg + 1 + reach).min(t.rings - 1);
     let w = (b / 4).max(1);
-    // Per ring: the squared distance to its nearest corner in the window, and that corner.
+    // Per ring read: the squared distance to its nearest corner in the window, and that corner.
     let mut ring = [(f32::INFINITY, 0usize); 2 * SCAN_RINGS + 2];
-    for i in lo..=hi {
+    let n = (hi - lo) / stride + 1;
+    for (j, slot) in ring.iter_mut().enumerate().take(n) {
+        let i = lo + j * stride;
         let c = t.point(i);
-        for j in 0..=2 * w {
-            let k = (k0 + b + j - w) % b;
+        for jj in 0..=2 * w {
+            let k = (k0 + b + jj - w) % b;
             let d2 = (p - (c + t.spoke(i, k))).norm_squared();
-            if d2 < ring[i - lo].0 {
-                ring[i - lo] = (d2, k);
+            if d2 < slot.0 {
+                *slot = (d2, k);
             }
         }
     }
     let mut out: [Option<(Patch, Local)>; SCAN_SEEDS] = [None; SCAN_SEEDS];
     let mut kept = [f32::INFINITY; SCAN_SEEDS];
-    let n = hi - lo + 1;
     for j in 0..n {
         let d2 = ring[j].0;
         let pocket = (j == 0 || d2 <= ring[j - 1].0) && (j + 1 == n || d2 <= ring[j + 1].0);
@@ -465,7 +483,7 @@ fn scan_pockets(pr: &mut Probe, from: &Gap, k0: usize, dist: f32) -> [Option<(Pa
             continue;
         }
         let Some(slot) = (0..SCAN_SEEDS).max_by(|&x, &y| kept[x].total_cmp(&kept[y])).filter(|&x| d2 < kept[x]) else { continue };
-        let i = lo + j;
+        let i = lo + j * stride;
         let at = if i > last { Patch { seg: last, u: 1.0, k: ring[j].1, l: 0.0 } } else { Patch { seg: i, u: 0.0, k: ring[j].1, l: 0.0 } };
         let here = local(t, cache, at);
         if here.faces(p, cache.ring(t, at.seg).o, side) {
@@ -508,9 +526,13 @@ const OTHER_TRIES: usize = 2;
 const SEED_SLOTS: usize = 3 * (1 + SEEDS.len());
 
 /// Descends from `at` (where the wall is `here`) as the module says; `first_du`, if given,
-/// replaces the first step (along the tube only).
+/// replaces the first step (along the tube only). `iterations` steps, and as many more as the
+/// rings within the search's reach exceed [`FREE_CROSSINGS`]: a step ends at each ring it
+/// crosses, so rings far denser than the search's distance would otherwise hold the descent
+/// short of the wall.
 fn descend(pr: &mut Probe, mut at: Patch, mut here: Local, first_du: Option<f32>, iterations: usize) -> End {
     let (p, tol) = (pr.p, pr.tol);
+    let iterations = iterations + pr.rings.saturating_sub(FREE_CROSSINGS);
     let mut d2 = (p - here.s).norm_squared();
     let mut pin = Pins::default();
     let mut settled = false;

@@ -185,8 +185,9 @@ struct Around {
     scale: f32,
 }
 
-/// Segments either side of a sample's own that [`TubeCache::slope_near`] reads at most.
-pub const SLOPE_SEGMENTS: usize = 16;
+/// Segments either side of a sample's own that [`TubeCache::slope_near`] reads at most (its
+/// reach, unless rings lie denser than that across it).
+pub const SLOPE_SEGMENTS: usize = 512;
 
 /// Where a point at signed distances `d0` and `d1` from the planes of rings `i` and `i + 1`
 /// (`d0 >= 0 >= d1`: they bracket it) lies along segment `i`: `u = d0 / (d0 - d1)`.
