@@ -30,8 +30,9 @@
 //! first and from each other: up to three other walls.
 //!
 //! **When.** Only where some wall of the section may touch the sample on its far side: a wall
-//! point `E` with `E . d <= 0` lies at least `|E|` from the sample (`|E - d|^2 = |E|^2 + |d|^2
-//! - 2 E . d`), and `|E|` is bounded below per segment ([`TubeCache::inner_bound`]). Where that
+//! point `E` with `E . d <= 0` lies at least `|E|` from the sample (as
+//! `|E - d|^2 = |E|^2 + |d|^2 - 2 E . d`), and `|E|` is bounded below per segment
+//! ([`TubeCache::inner_bound`]). Where that
 //! bound is not below the rod's radius, the lumen is nowhere narrower than the rod there, and
 //! the sample's own side is the first reading's (and, with the scene's `nearest`, the
 //! descents' [`crate::nearest::Near::others`]). On a colon wider than the scope this is a

@@ -55,20 +55,26 @@ pub struct TubeCache {
     ring: Vec<Ring>,
     inner_stamp: Vec<u32>,
     inner: Vec<Inner>,
+    /// Per ring: how near its control point its wall edges come, at least, and the spokes it
+    /// was computed from, kept across frames (a ring that did not change is not recomputed).
+    near_stamp: Vec<u32>,
+    near: Vec<f32>,
+    near_spokes: Vec<[f32; 3]>,
+    /// Per ring: bumped each time its spokes change (0: never computed); per segment, the two
+    /// rings' versions its [`Inner`] was computed from.
+    version: Vec<u32>,
+    inner_from: Vec<[u32; 2]>,
     pub alpha: f32,
 }
 
-/// What bounds how near its midline point a segment's wall comes, in any of its sections
-/// ([`TubeCache::inner_bound`]).
+/// What bounds how steeply a segment's wall runs along the tube and how far its sections differ
+/// ([`TubeCache::inner_bound`], [`TubeCache::slope_near`]).
 #[derive(Debug, Clone, Copy, Default)]
 struct Inner {
-    /// Least distance from the control point to ring `seg`'s wall edges, and ring `seg + 1`'s.
-    ring0: f32,
-    ring1: f32,
     /// Largest change of one spoke from ring `seg` to ring `seg + 1`.
     delta: f32,
     /// `delta` per length of midline chord between the rings (infinite for a zero chord or
-    /// a NaN): the wall's slope along the tube, bounded ([`TubeCache::slope_near`]).
+    /// a NaN): the wall's slope along the tube, bounded.
     slope: f32,
 }
 
@@ -247,6 +253,14 @@ impl TubeCache {
             self.inner_stamp.clear();
             self.inner_stamp.resize(rings.saturating_sub(1), 0);
             self.inner.resize(rings.saturating_sub(1), Inner::default());
+            self.near_stamp.clear();
+            self.near_stamp.resize(rings, 0);
+            self.near.resize(rings, 0.0);
+            self.near_spokes.clear();
+            self.version.clear();
+            self.version.resize(rings, 0);
+            self.inner_from.clear();
+            self.inner_from.resize(rings.saturating_sub(1), [0; 2]);
             self.alpha = alpha;
             self.stamp = 0;
         }
@@ -256,6 +270,7 @@ impl TubeCache {
             self.seg_stamp.iter_mut().for_each(|s| *s = 0);
             self.ring_stamp.iter_mut().for_each(|s| *s = 0);
             self.inner_stamp.iter_mut().for_each(|s| *s = 0);
+            self.near_stamp.iter_mut().for_each(|s| *s = 0);
             self.stamp = 1;
         }
     }
@@ -286,17 +301,47 @@ impl TubeCache {
     /// A wall point of the section is `E = (1 - u) E0 + u E1`, with `E0`, `E1` the points at the
     /// same place on the edges of rings `seg` and `seg + 1` (relative to their control points),
     /// and `|E1 - E0| <= delta`, the largest change of one spoke between them, so
-    /// `|E| >= max(inner0 - u delta, inner1 - (1 - u) delta)`. Computed once per segment and
-    /// frame, for the segments that ask (`O(B)` each).
+    /// `|E| >= max(near0 - u delta, near1 - (1 - u) delta)`, each ring's `near` its shortest
+    /// spoke less half its longest edge (an edge point lies within half the edge of one of its
+    /// ends). Rings and segments are computed once a frame, those that are asked for (`O(B)`
+    /// each, over the ring's contiguous spokes).
     pub fn inner_bound(&mut self, t: &TubeView, seg: usize, u: f32) -> f32 {
-        let Inner { ring0, ring1, delta, .. } = self.inner_of(t, seg);
-        let bound = (ring0 - u * delta).max(ring1 - (1.0 - u) * delta);
+        let (near0, near1) = (self.near_of(t, seg), self.near_of(t, seg + 1));
+        let delta = self.inner_of(t, seg).delta;
+        let bound = (near0 - u * delta).max(near1 - (1.0 - u) * delta);
         // Negated on purpose: NaN (a degenerate ring) bounds nothing.
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(bound > 0.0) {
             return 0.0;
         }
         bound
+    }
+
+    /// Ring `i`'s `near` (see [`TubeCache::inner_bound`]): checked once a frame against the
+    /// spokes it was computed from (a compare of the ring's floats), computed again where they
+    /// changed. The colonoscopy moves a few rings a frame; most of a frame's rings are as they
+    /// were.
+    #[inline]
+    fn near_of(&mut self, t: &TubeView, i: usize) -> f32 {
+        if self.near_stamp[i] != self.stamp {
+            let b = t.spokes;
+            if self.near_spokes.len() != self.near.len() * b {
+                self.near_spokes.clear();
+                self.near_spokes.resize(self.near.len() * b, [0.0; 3]);
+                self.version.iter_mut().for_each(|v| *v = 0);
+                self.inner_from.iter_mut().for_each(|f| *f = [0; 2]);
+            }
+            let now = t.spokes_of(i);
+            let kept = &mut self.near_spokes[i * b..(i + 1) * b];
+            let same = self.version[i] != 0 && same_bits(kept, now);
+            if !same {
+                kept.copy_from_slice(now);
+                self.near[i] = ring_near(now);
+                self.version[i] = self.version[i].wrapping_add(1).max(1);
+            }
+            self.near_stamp[i] = self.stamp;
+        }
+        self.near[i]
     }
 
     /// A bound on how steeply the wall runs along the tube within `along` (scene's unit) of
@@ -317,11 +362,17 @@ impl TubeCache {
         s
     }
 
-    /// Segment `seg`'s [`Inner`], computed once a frame.
+    /// Segment `seg`'s [`Inner`], computed again only where one of its rings changed.
     #[inline]
     fn inner_of(&mut self, t: &TubeView, seg: usize) -> Inner {
         if self.inner_stamp[seg] != self.stamp {
-            self.inner[seg] = compute_inner(t, seg);
+            self.near_of(t, seg);
+            self.near_of(t, seg + 1);
+            let from = [self.version[seg], self.version[seg + 1]];
+            if self.inner_from[seg] != from {
+                self.inner[seg] = compute_inner(t, seg);
+                self.inner_from[seg] = from;
+            }
             self.inner_stamp[seg] = self.stamp;
         }
         self.inner[seg]
@@ -550,28 +601,44 @@ impl TubeCache {
     }
 }
 
-/// The least distance from the origin to the segment from `a` to `b`.
+/// Whether two runs of spokes hold the same bits: one `memcmp` of their bytes, where a float
+/// compare per value costs ten times as much (and calls a NaN changed every frame).
 #[inline]
-pub(crate) fn origin_to_edge(a: V3, b: V3) -> f32 {
-    let w = b - a;
-    let ww = w.norm_squared();
-    let l = if ww > 0.0 { (-a.dot(&w) / ww).clamp(0.0, 1.0) } else { 0.0 };
-    (a + w * l).norm()
+fn same_bits(a: &[[f32; 3]], b: &[[f32; 3]]) -> bool {
+    let bytes = |s: &[[f32; 3]]| {
+        // SAFETY: `[f32; 3]` is 12 bytes with no padding, every byte of it initialised, and `u8`
+        // has no invalid values or alignment; the slice borrows `s` for its own lifetime.
+        unsafe { std::slice::from_raw_parts(s.as_ptr().cast::<u8>(), std::mem::size_of_val(s)) }
+    };
+    bytes(a) == bytes(b)
 }
 
-/// See [`TubeCache::inner_bound`]: ring `seg`'s and ring `seg + 1`'s least edge distances from
-/// their control points, and the largest change of a spoke between them.
+/// A ring's `near` (see [`TubeCache::inner_bound`]): its shortest spoke less half its longest
+/// edge, from squared lengths (two square roots a ring).
+fn ring_near(spokes: &[[f32; 3]]) -> f32 {
+    let sq = |v: [f32; 3]| v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let (mut len2, mut edge2) = (f32::INFINITY, 0.0f32);
+    let mut prev = spokes[spokes.len() - 1];
+    // Plain comparisons, not `f32::min`/`max` (which weigh NaNs at every step): the frame's
+    // values are finite, checked on the way in.
+    for &v in spokes {
+        let l2 = sq(v);
+        let e2 = sq([v[0] - prev[0], v[1] - prev[1], v[2] - prev[2]]);
+        len2 = if l2 < len2 { l2 } else { len2 };
+        edge2 = if e2 > edge2 { e2 } else { edge2 };
+        prev = v;
+    }
+    len2.sqrt() - 0.5 * edge2.sqrt()
+}
+
+/// Segment `seg`'s [`Inner`]: the largest change of a spoke from ring `seg` to `seg + 1`, and
+/// per length of the midline chord between them.
 fn compute_inner(t: &TubeView, seg: usize) -> Inner {
-    let b = t.spokes;
-    let (mut ring0, mut ring1, mut delta2) = (f32::INFINITY, f32::INFINITY, 0.0f32);
-    let (mut a0, mut a1) = (t.spoke(seg, 0), t.spoke(seg + 1, 0));
-    for k in 0..b {
-        let kk = next(k, b);
-        let (b0, b1) = (t.spoke(seg, kk), t.spoke(seg + 1, kk));
-        ring0 = ring0.min(origin_to_edge(a0, b0));
-        ring1 = ring1.min(origin_to_edge(a1, b1));
-        delta2 = delta2.max((a1 - a0).norm_squared());
-        (a0, a1) = (b0, b1);
+    let mut delta2 = 0.0f32;
+    for (a, b) in t.spokes_of(seg).iter().zip(t.spokes_of(seg + 1)) {
+        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        delta2 = if d2 > delta2 { d2 } else { delta2 };
     }
     let delta = delta2.sqrt();
     let chord = (t.point(seg + 1) - t.point(seg)).norm();
@@ -579,7 +646,7 @@ fn compute_inner(t: &TubeView, seg: usize) -> Inner {
     // Negated on purpose: a NaN or a zero chord bounds nothing.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     let slope = if !(slope < f32::INFINITY) { f32::INFINITY } else { slope };
-    Inner { ring0, ring1, delta, slope }
+    Inner { delta, slope }
 }
 
 /// The tips (of spokes `0 .. 4` of [`Around::vs`]) a reading weighs, given where the point

@@ -40,6 +40,13 @@ impl<'a> TubeView<'a> {
         V3::from(self.data[i * self.stride + 1 + k])
     }
 
+    /// Ring `i`'s radial vectors, in order (relative to its control point).
+    #[inline]
+    pub fn spokes_of(&self, i: usize) -> &'a [[f32; 3]] {
+        let o = i * self.stride + 1;
+        &self.data[o..o + self.spokes]
+    }
+
     /// The box of ring `i`'s radial vectors (relative to its control point), read in one pass
     /// over the ring's floats.
     pub fn spoke_box(&self, i: usize) -> Aabb {

@@ -319,10 +319,17 @@ fn hard_non_uniform_spoke_angles() {
         let (y, z) = (rho * a.cos(), rho * a.sin());
         let cs = run(&interior(colon.clone(), line([2.0, y, z], [30.0, y, z], 3, 3.0), 1, Method::Signed));
         let want = 3.0 + polygon_sd(&poly, [y, z]);
-        assert_eq!(cs.len(), if want > 0.0 { 3 } else { 0 }, "angle {a}: want {want}");
-        for c in &cs {
+        // Each sample's first contact is its nearest wall; where the section is narrow enough
+        // that another edge may touch it, that edge is a contact too, on the wall and touching.
+        let (first, others): (Vec<&lumen_detect::Contact>, Vec<_>) = cs.iter().partition(|c| c.flags & FLAG_OTHER_WALL == 0);
+        assert_eq!(first.len(), if want > 0.0 { 3 } else { 0 }, "angle {a}: want {want}");
+        for c in first {
             assert!((c.depth - want).abs() < 1e-4, "angle {a}: {} want {want}", c.depth);
             checked += 1;
+        }
+        for c in others {
+            let on_wall = polygon_sd(&poly, [c.point_b[1], c.point_b[2]]).abs();
+            assert!(c.depth > 0.0 && c.depth <= want + 1e-4 && on_wall < 1e-3, "angle {a}: other wall {c:?}");
         }
     }
     assert!(checked > 30);
