@@ -60,10 +60,14 @@ pub struct TubeCache {
     near_stamp: Vec<u32>,
     near: Vec<f32>,
     near_spokes: Vec<[f32; 3]>,
-    /// Per ring: bumped each time its spokes change (0: never computed); per segment, the two
-    /// rings' versions its [`Inner`] was computed from.
+    /// Per ring: bumped each time its spokes change (0: never seen), and the version its `near`
+    /// was computed from; per segment, the two rings' versions its [`Inner`] was computed from.
     version: Vec<u32>,
+    near_from: Vec<u32>,
     inner_from: Vec<[u32; 2]>,
+    /// Per segment: this frame's [`TubeCache::slope_near`], and the reach it was asked for.
+    slope_stamp: Vec<u32>,
+    slope: Vec<(f32, f32)>,
     pub alpha: f32,
 }
 
@@ -259,8 +263,13 @@ impl TubeCache {
             self.near_spokes.clear();
             self.version.clear();
             self.version.resize(rings, 0);
+            self.near_from.clear();
+            self.near_from.resize(rings, 0);
             self.inner_from.clear();
             self.inner_from.resize(rings.saturating_sub(1), [0; 2]);
+            self.slope_stamp.clear();
+            self.slope_stamp.resize(rings.saturating_sub(1), 0);
+            self.slope.resize(rings.saturating_sub(1), (0.0, 0.0));
             self.alpha = alpha;
             self.stamp = 0;
         }
@@ -271,6 +280,7 @@ impl TubeCache {
             self.ring_stamp.iter_mut().for_each(|s| *s = 0);
             self.inner_stamp.iter_mut().for_each(|s| *s = 0);
             self.near_stamp.iter_mut().for_each(|s| *s = 0);
+            self.slope_stamp.iter_mut().for_each(|s| *s = 0);
             self.stamp = 1;
         }
     }
@@ -317,29 +327,40 @@ impl TubeCache {
         bound
     }
 
-    /// Ring `i`'s `near` (see [`TubeCache::inner_bound`]): checked once a frame against the
-    /// spokes it was computed from (a compare of the ring's floats), computed again where they
-    /// changed. The colonoscopy moves a few rings a frame; most of a frame's rings are as they
-    /// were.
+    /// Ring `i`'s version: checked once a frame against the spokes last seen (one compare of
+    /// the ring's bytes) and bumped where they changed, so what is derived from a ring is
+    /// computed again only where it changed. The colonoscopy moves a few rings a frame; most
+    /// of a frame's rings are as they were.
     #[inline]
-    fn near_of(&mut self, t: &TubeView, i: usize) -> f32 {
+    fn version_of(&mut self, t: &TubeView, i: usize) -> u32 {
         if self.near_stamp[i] != self.stamp {
             let b = t.spokes;
             if self.near_spokes.len() != self.near.len() * b {
                 self.near_spokes.clear();
                 self.near_spokes.resize(self.near.len() * b, [0.0; 3]);
                 self.version.iter_mut().for_each(|v| *v = 0);
+                self.near_from.iter_mut().for_each(|v| *v = 0);
                 self.inner_from.iter_mut().for_each(|f| *f = [0; 2]);
             }
             let now = t.spokes_of(i);
             let kept = &mut self.near_spokes[i * b..(i + 1) * b];
-            let same = self.version[i] != 0 && same_bits(kept, now);
-            if !same {
+            if self.version[i] == 0 || !same_bits(kept, now) {
                 kept.copy_from_slice(now);
-                self.near[i] = ring_near(now);
                 self.version[i] = self.version[i].wrapping_add(1).max(1);
             }
             self.near_stamp[i] = self.stamp;
+        }
+        self.version[i]
+    }
+
+    /// Ring `i`'s `near` (see [`TubeCache::inner_bound`]), computed again only where the ring
+    /// changed.
+    #[inline]
+    fn near_of(&mut self, t: &TubeView, i: usize) -> f32 {
+        let v = self.version_of(t, i);
+        if self.near_from[i] != v {
+            self.near[i] = ring_near(t.spokes_of(i));
+            self.near_from[i] = v;
         }
         self.near[i]
     }
@@ -352,6 +373,9 @@ impl TubeCache {
     /// `D / sqrt(1 + s^2)` from the wall there (where the midline runs straight; a bend adds
     /// the spokes' turn to `s`, which only makes the bound more cautious).
     pub fn slope_near(&mut self, t: &TubeView, seg: usize, along: f32) -> f32 {
+        if self.slope_stamp[seg] == self.stamp && self.slope[seg].0 == along {
+            return self.slope[seg].1;
+        }
         let chord = (t.point(seg + 1) - t.point(seg)).norm();
         let n = if chord > 0.0 { ((along / chord).ceil() as usize).min(SLOPE_SEGMENTS) } else { SLOPE_SEGMENTS };
         let (lo, hi) = (seg.saturating_sub(n), (seg + n).min(t.segments() - 1));
@@ -359,6 +383,8 @@ impl TubeCache {
         for j in lo..=hi {
             s = s.max(self.inner_of(t, j).slope);
         }
+        self.slope[seg] = (along, s);
+        self.slope_stamp[seg] = self.stamp;
         s
     }
 
@@ -366,9 +392,7 @@ impl TubeCache {
     #[inline]
     fn inner_of(&mut self, t: &TubeView, seg: usize) -> Inner {
         if self.inner_stamp[seg] != self.stamp {
-            self.near_of(t, seg);
-            self.near_of(t, seg + 1);
-            let from = [self.version[seg], self.version[seg + 1]];
+            let from = [self.version_of(t, seg), self.version_of(t, seg + 1)];
             if self.inner_from[seg] != from {
                 self.inner[seg] = compute_inner(t, seg);
                 self.inner_from[seg] = from;
