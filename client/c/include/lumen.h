@@ -22,9 +22,10 @@
 #define LUMEN_FLAG_OUTSIDE 2
 
 /**
- * Flag: another contact of the same rod sample with the same tube (interior contacts, with the
- * scene's `nearest`): another wall within the margin, facing the sample from a direction more
- * than 30 degrees from its first contact's and from its other ones' (the scope's end between
+ * Flag: another contact of the same rod sample with the same tube (interior contacts of the
+ * signed method): another wall within the margin, facing the sample from a direction more
+ * than 30 degrees from its first contact's and from its other ones' (a lumen narrower than
+ * the rod, pressing on it all around; with the scene's `nearest` also the scope's end between
  * the side wall and a fold ahead of it, or in a pocket between several). Its depth, normal and
  * wall point are that wall's. A sample has at most four contacts per pair: its first (its
  * nearest wall, unflagged) and up to three flagged ones after it.
