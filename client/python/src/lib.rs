@@ -76,6 +76,7 @@ fn lumen_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FLAG_NOT_STAR", lumen_proto::contact::FLAG_NOT_STAR)?;
     m.add("FLAG_OUTSIDE", lumen_proto::contact::FLAG_OUTSIDE)?;
     m.add("FLAG_OTHER_WALL", lumen_proto::contact::FLAG_OTHER_WALL)?;
+    m.add("MAX_OTHER_WALLS", lumen_proto::limits::MAX_OTHER_WALLS)?;
     m.add("KIND_INTERIOR", lumen_proto::ContactKind::Interior as u8)?;
     m.add("KIND_EXTERIOR", lumen_proto::ContactKind::Exterior as u8)?;
     m.add("KIND_SELF", lumen_proto::ContactKind::SelfContact as u8)?;

@@ -61,7 +61,8 @@ def test_round_trip_matches_the_embedded_detector_and_the_closed_form(start_daem
         assert s.transport == transport
         assert s.floats == st.FLOATS
         assert s.layout == reference.layout
-        assert s.max_contacts == st.SAMPLES
+        # A reply holds every wall a sample may report: its first and up to MAX_OTHER_WALLS more.
+        assert s.max_contacts == st.SAMPLES * (1 + lumen.MAX_OTHER_WALLS) == st.SAMPLES * 4
         n0, r = first_round_trip(s, st.state(8.5))
         assert r.ok and r.status == 0 and r.status_name == "ok" and r.message == ""
         assert r.contacts.tobytes() == reference.detect(st.state(8.5)).tobytes()

@@ -22,6 +22,7 @@ FLAG_OTHER_WALL: int
 KIND_INTERIOR: int
 KIND_EXTERIOR: int
 KIND_SELF: int
+MAX_OTHER_WALLS: int
 __version__: str
 
 def contact_fields() -> List[Tuple[str, str, int]]:
