@@ -117,10 +117,7 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
             pick[q] = (key.0, key.1, k);
         }
     }
-    let cos = OTHER_ANGLE_DEG.to_radians().cos();
-    let mut taken = [first.normal; 1 + MAX_OTHERS];
-    let mut n_taken = 1;
-    let mut found = [None; 3];
+    let mut found = [None; MAX_OTHERS];
     for (slot, &(_, _, k)) in found.iter_mut().zip(&pick) {
         if k != usize::MAX {
             // The wall point itself: a tangent plane there would pass nearer than the wall
@@ -130,14 +127,9 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
             *slot = Some(Gap { sd: -len, normal: e / len, wall: p + e, seg, u, k, l, not_star: first.not_star, rho2: d.norm_squared(), size: first.size, outside: false });
         }
     }
+    // Nearest first, each kept where it stands apart from the first and those kept before it.
     found.sort_unstable_by(|a, b| a.map_or(f32::INFINITY, |g| -g.sd).total_cmp(&b.map_or(f32::INFINITY, |g| -g.sd)));
-    for g in found.into_iter().flatten() {
-        if n_taken <= MAX_OTHERS && taken[..n_taken].iter().all(|w| g.normal.dot(w) < cos) {
-            out[n_taken - 1] = Some(g);
-            taken[n_taken] = g.normal;
-            n_taken += 1;
-        }
-    }
+    merge(first.normal, &mut out, &found);
     out
 }
 

@@ -55,11 +55,12 @@ pub struct TubeCache {
     ring: Vec<Ring>,
     inner_stamp: Vec<u32>,
     inner: Vec<Inner>,
-    /// Per ring: how near its control point its wall edges come, at least, and the spokes it
-    /// was computed from, kept across frames (a ring that did not change is not recomputed).
-    near_stamp: Vec<u32>,
+    /// Per ring: the frame its spokes were last compared in, and those spokes, kept across
+    /// frames to tell a ring that changed ([`TubeCache::inner_bound`]); and how near its
+    /// control point its wall edges come, at least.
+    seen_stamp: Vec<u32>,
+    seen_spokes: Vec<[f32; 3]>,
     near: Vec<f32>,
-    near_spokes: Vec<[f32; 3]>,
     /// Per ring: bumped each time its spokes change (0: never seen), and the version its `near`
     /// was computed from; per segment, the two rings' versions its [`Inner`] was computed from.
     version: Vec<u32>,
@@ -257,10 +258,10 @@ impl TubeCache {
             self.inner_stamp.clear();
             self.inner_stamp.resize(rings.saturating_sub(1), 0);
             self.inner.resize(rings.saturating_sub(1), Inner::default());
-            self.near_stamp.clear();
-            self.near_stamp.resize(rings, 0);
+            self.seen_stamp.clear();
+            self.seen_stamp.resize(rings, 0);
             self.near.resize(rings, 0.0);
-            self.near_spokes.clear();
+            self.seen_spokes.clear();
             self.version.clear();
             self.version.resize(rings, 0);
             self.near_from.clear();
@@ -279,7 +280,7 @@ impl TubeCache {
             self.seg_stamp.iter_mut().for_each(|s| *s = 0);
             self.ring_stamp.iter_mut().for_each(|s| *s = 0);
             self.inner_stamp.iter_mut().for_each(|s| *s = 0);
-            self.near_stamp.iter_mut().for_each(|s| *s = 0);
+            self.seen_stamp.iter_mut().for_each(|s| *s = 0);
             self.slope_stamp.iter_mut().for_each(|s| *s = 0);
             self.stamp = 1;
         }
@@ -333,22 +334,22 @@ impl TubeCache {
     /// of a frame's rings are as they were.
     #[inline]
     fn version_of(&mut self, t: &TubeView, i: usize) -> u32 {
-        if self.near_stamp[i] != self.stamp {
+        if self.seen_stamp[i] != self.stamp {
             let b = t.spokes;
-            if self.near_spokes.len() != self.near.len() * b {
-                self.near_spokes.clear();
-                self.near_spokes.resize(self.near.len() * b, [0.0; 3]);
+            if self.seen_spokes.len() != self.near.len() * b {
+                self.seen_spokes.clear();
+                self.seen_spokes.resize(self.near.len() * b, [0.0; 3]);
                 self.version.iter_mut().for_each(|v| *v = 0);
                 self.near_from.iter_mut().for_each(|v| *v = 0);
                 self.inner_from.iter_mut().for_each(|f| *f = [0; 2]);
             }
             let now = t.spokes_of(i);
-            let kept = &mut self.near_spokes[i * b..(i + 1) * b];
+            let kept = &mut self.seen_spokes[i * b..(i + 1) * b];
             if self.version[i] == 0 || !same_bits(kept, now) {
                 kept.copy_from_slice(now);
                 self.version[i] = self.version[i].wrapping_add(1).max(1);
             }
-            self.near_stamp[i] = self.stamp;
+            self.seen_stamp[i] = self.stamp;
         }
         self.version[i]
     }

@@ -50,9 +50,8 @@ impl<'a> TubeView<'a> {
     /// The box of ring `i`'s radial vectors (relative to its control point), read in one pass
     /// over the ring's floats.
     pub fn spoke_box(&self, i: usize) -> Aabb {
-        let o = i * self.stride + 1;
         let mut b = Aabb::EMPTY;
-        for &v in &self.data[o..o + self.spokes] {
+        for &v in self.spokes_of(i) {
             b.add(V3::from(v));
         }
         b

@@ -83,10 +83,11 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         let mut others = [None; MAX_OTHERS];
         // The nearest wall is sought where it may lie within reach: the section's wall itself,
         // or a wall along the tube as near as the wall's slope there allows.
+        // (With `nearest`, `r + clear` is that reach; the slope is read only where the section
+        // alone does not decide.)
         let seek = |cache: &mut TubeCache, g: &Gap| {
-            let reach = r + NEAREST_REACH * emit.margin;
-            let s = cache.slope_near(&tube.view, g.seg, reach);
-            g.sd > -reach || -g.sd < reach * (1.0 + s * s).sqrt()
+            let reach = r + clear;
+            g.sd > -reach || -g.sd < reach * (1.0 + cache.slope_near(&tube.view, g.seg, reach).powi(2)).sqrt()
         };
         if params.nearest && (end || seek(tube.cache, &g)) {
             let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, end);
