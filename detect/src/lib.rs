@@ -10,6 +10,7 @@
 //! - [`around`]: every other wall of a sample's own section within reach, all around it.
 //! - [`narrow`]: one job per pair, from located samples to contacts.
 //! - [`detector`]: the per-scene object that runs a frame.
+//! - [`wall`]: the continuous wall as a grid of points, for drawing it.
 
 pub mod around;
 pub mod broad;
@@ -21,6 +22,7 @@ pub mod samples;
 pub mod section;
 pub mod spline;
 pub mod view;
+pub mod wall;
 
 pub use detector::{Detector, FrameStats};
 pub use lumen_proto as proto;
