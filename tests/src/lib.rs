@@ -11,6 +11,9 @@
 //! - [`client_loop`], [`spawn_client_role`]: client processes to kill, and
 //!   [`kill9_and_time_freeing`]: how soon the daemon frees a killed client's session.
 //! - [`closed_sessions_reopen`]: a session ended under its client, on either transport.
+//! - [`browser`]: a CDP driver for headless Chromium (pages, `eval`, screenshots, init scripts).
+
+pub mod browser;
 
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use lumen_proto::{Contact, SceneSpec};
