@@ -9,12 +9,14 @@
 //! - [`figures`]: the per-frame and run figures `lumen sim` writes and `lumen demo` reads.
 //! - [`demo_report`]: `lumen demo`'s summary, report and plots; [`procs`]: its child processes.
 //! - [`error`]: [`CliError`], the one error type of every subcommand.
+//! - [`foxglove`]: a recording's `/lumen/scene` channel, Foxglove's `foxglove.SceneUpdate`.
 //! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`).
 
 pub mod commands;
 pub mod demo_report;
 pub mod error;
 pub mod figures;
+pub mod foxglove;
 pub mod ipc;
 pub mod procs;
 pub mod recording;

@@ -18,6 +18,10 @@
 //! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta (`u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
 //! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
 //! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
+//! | `/lumen/scene` | `json` | `foxglove.SceneUpdate`, `jsonschema` (Foxglove's own schema) | per frame the scope as a line, and the colon as triangles on the first frame and then at most once a second of log time; per reply its contacts as arrows (see [`crate::foxglove`]); left out by `lumen record --no-scene` ([`WriterOptions`]) |
+//!
+//! The scene channel is for viewers (Foxglove, Lichtblick: the 3D panel draws it with no
+//! plugin); [`Recording::open`] and replays skip it, and everything they read is in the others.
 //!
 //! All little-endian, as in `proto/README.md`. `log_time` is the client's `client_time_ns`
 //! (its own clock, nanoseconds) or, when the client left it 0, the receive time; `publish_time`
@@ -25,6 +29,7 @@
 //! names the session and transport. The same facts are also MCAP metadata records (`lumen`,
 //! first, and `lumen.summary`, on finishing) for tools that show metadata.
 
+use crate::foxglove::{SceneWriter, SCENE_UPDATE, SCENE_UPDATE_SCHEMA};
 use lumen_proto::wire::{self, ContactsHeader, FrameHeader, CONTACT_BYTES};
 use lumen_proto::{Contact, SceneSpec};
 use mcap::records::{MessageHeader, Metadata};
@@ -41,6 +46,8 @@ pub const FRAMES_TOPIC: &str = "/lumen/frames";
 pub const CONTACTS_TOPIC: &str = "/lumen/contacts";
 /// Topic of the counts written on finishing (JSON, one message, last).
 pub const SUMMARY_TOPIC: &str = "/lumen/summary";
+/// Topic of the scene for viewers: `foxglove.SceneUpdate` as JSON ([`crate::foxglove`]).
+pub const SCENE_TOPIC: &str = "/lumen/scene";
 /// Message and schema encoding of replies: the `#[repr(C)]` little-endian bytes of
 /// `proto/README.md`.
 pub const WIRE_ENCODING: &str = "lumen-repr-c";
@@ -183,6 +190,8 @@ pub struct Written {
     pub replies: u64,
     /// Contact records in all replies.
     pub contacts: u64,
+    /// Messages on [`SCENE_TOPIC`] (0 without the scene).
+    pub scene: u64,
     /// File size in bytes.
     pub bytes: u64,
 }
@@ -194,6 +203,26 @@ pub struct Missed {
     pub frames: u64,
     /// Replies it never saw, beyond the frames the daemon itself skipped.
     pub replies: u64,
+}
+
+/// What a [`Writer`] writes beyond the frames, replies, spec and summary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WriterOptions {
+    /// The [`SCENE_TOPIC`] channel for viewers (on by default).
+    pub scene: bool,
+}
+
+impl Default for WriterOptions {
+    fn default() -> Self {
+        Self { scene: true }
+    }
+}
+
+/// The scene channel of a writer: its id, the builder and the message buffer it reuses.
+struct SceneChannel {
+    channel: u16,
+    writer: SceneWriter,
+    buf: Vec<u8>,
 }
 
 /// Writes a recording: [`Writer::create`], then [`Writer::frame`] / [`Writer::contacts`] as
@@ -212,18 +241,25 @@ pub struct Writer {
     /// The last recorded frame's floats (as bits), what the next delta is against.
     last: Vec<u32>,
     since_key: u64,
+    scene: Option<SceneChannel>,
 }
 
 impl Writer {
     /// Creates `path` (replacing it) and writes the header, schemas, channels, the `lumen`
     /// metadata and the spec message. `transport` is only informative (`iceoryx2`, `zenoh`).
+    /// With the default [`WriterOptions`]: the scene channel too.
     pub fn create(path: &Path, spec: &SceneSpec, session: u64, transport: &str) -> Result<Self, RecordingError> {
+        Self::create_with(path, spec, session, transport, WriterOptions::default())
+    }
+
+    /// [`Writer::create`] with the channels `options` choose.
+    pub fn create_with(path: &Path, spec: &SceneSpec, session: u64, transport: &str, options: WriterOptions) -> Result<Self, RecordingError> {
         let io = |source| RecordingError::Io { path: path.to_owned(), source };
         let file = File::create(path).map_err(io)?;
         let wr = |source| RecordingError::Write { path: path.to_owned(), source };
         // No compression: the build stays free of C libraries, and every MCAP tool reads it.
-        let options = mcap::WriteOptions::new().profile(PROFILE).library(concat!("lumen/", env!("CARGO_PKG_VERSION"))).compression(None);
-        let mut mcap = options.create(BufWriter::new(file)).map_err(wr)?;
+        let mcap_options = mcap::WriteOptions::new().profile(PROFILE).library(concat!("lumen/", env!("CARGO_PKG_VERSION"))).compression(None);
+        let mut mcap = mcap_options.create(BufWriter::new(file)).map_err(wr)?;
         let spec_json = serde_json::to_string(spec).expect("a SceneSpec always serialises");
         let mut meta = BTreeMap::new();
         meta.insert("spec".to_owned(), spec_json.clone());
@@ -244,6 +280,13 @@ impl Writer {
         let frames_channel = mcap.add_channel(frame_schema, FRAMES_TOPIC, FRAME_ENCODING, &none).map_err(wr)?;
         let contacts_schema = mcap.add_schema("lumen.Contacts", WIRE_ENCODING, CONTACTS_SCHEMA.as_bytes()).map_err(wr)?;
         let contacts_channel = mcap.add_channel(contacts_schema, CONTACTS_TOPIC, WIRE_ENCODING, &none).map_err(wr)?;
+        let scene = if options.scene {
+            let schema = mcap.add_schema(SCENE_UPDATE, "jsonschema", SCENE_UPDATE_SCHEMA.as_bytes()).map_err(wr)?;
+            let channel = mcap.add_channel(schema, SCENE_TOPIC, "json", &none).map_err(wr)?;
+            Some(SceneChannel { channel, writer: SceneWriter::new(spec), buf: Vec::new() })
+        } else {
+            None
+        };
         // The spec message is stamped 0: it holds before every frame, whatever the client's clock.
         let now = wall_ns();
         mcap.write_to_known_channel(&MessageHeader { channel_id: spec_channel, sequence: 0, log_time: 0, publish_time: now }, spec_json.as_bytes()).map_err(wr)?;
@@ -259,6 +302,7 @@ impl Writer {
             buf: Vec::new(),
             last: Vec::new(),
             since_key: 0,
+            scene,
         })
     }
 
@@ -269,8 +313,16 @@ impl Writer {
         self.since_key = if key { 0 } else { self.since_key + 1 };
         self.buf.clear();
         encode_frame_message(header, &mut self.last, state, key, &mut self.buf);
-        self.put(self.frames_channel, header.client_time_ns, receive_ns)?;
+        self.put(self.frames_channel, header.client_time_ns, receive_ns, false)?;
         self.written.frames += 1;
+        if let Some(scene) = &mut self.scene {
+            scene.buf.clear();
+            let channel = scene.channel;
+            if scene.writer.frame(log_time(header.client_time_ns, receive_ns), state, &mut scene.buf).is_some() {
+                self.put(channel, header.client_time_ns, receive_ns, true)?;
+                self.written.scene += 1;
+            }
+        }
         Ok(())
     }
 
@@ -279,18 +331,30 @@ impl Writer {
         self.buf.clear();
         let mut h = *header;
         wire::encode_contacts(&mut h, contacts, &mut self.buf);
-        self.put(self.contacts_channel, header.client_time_ns, receive_ns)?;
+        self.put(self.contacts_channel, header.client_time_ns, receive_ns, false)?;
         self.written.replies += 1;
         self.written.contacts += contacts.len() as u64;
+        if let Some(scene) = &mut self.scene {
+            scene.buf.clear();
+            scene.writer.contacts(log_time(header.client_time_ns, receive_ns), contacts, &mut scene.buf);
+            let channel = scene.channel;
+            self.put(channel, header.client_time_ns, receive_ns, true)?;
+            self.written.scene += 1;
+        }
         Ok(())
     }
 
-    fn put(&mut self, channel_id: u16, client_ns: u64, receive_ns: u64) -> Result<(), RecordingError> {
-        let log_time = if client_ns != 0 { client_ns } else { receive_ns };
+    /// Writes the message in `self.buf` (`scene`: in the scene channel's buffer).
+    fn put(&mut self, channel_id: u16, client_ns: u64, receive_ns: u64, scene: bool) -> Result<(), RecordingError> {
+        let log_time = log_time(client_ns, receive_ns);
         self.last_log_time = self.last_log_time.max(log_time);
         let header = MessageHeader { channel_id, sequence: self.sequence, log_time, publish_time: receive_ns };
         self.sequence = self.sequence.wrapping_add(1);
-        self.mcap.write_to_known_channel(&header, &self.buf).map_err(|source| RecordingError::Write { path: self.path.clone(), source })
+        let data = match (&self.scene, scene) {
+            (Some(s), true) => &s.buf[..],
+            _ => &self.buf[..],
+        };
+        self.mcap.write_to_known_channel(&header, data).map_err(|source| RecordingError::Write { path: self.path.clone(), source })
     }
 
     /// What has been written so far (bytes: 0 until finished).
@@ -306,6 +370,7 @@ impl Writer {
         meta.insert("frames".to_owned(), self.written.frames.to_string());
         meta.insert("replies".to_owned(), self.written.replies.to_string());
         meta.insert("contacts".to_owned(), self.written.contacts.to_string());
+        meta.insert("scene".to_owned(), self.written.scene.to_string());
         meta.insert("missed_frames".to_owned(), missed.frames.to_string());
         meta.insert("missed_replies".to_owned(), missed.replies.to_string());
         let json = serde_json::to_vec(&meta).expect("a map of strings serialises");
@@ -318,6 +383,15 @@ impl Writer {
         file.sync_all().map_err(io)?;
         self.written.bytes = file.metadata().map_err(io)?.len();
         Ok(self.written)
+    }
+}
+
+/// A message's `log_time`: the client's timestamp, or the receive time where the client left it 0.
+fn log_time(client_ns: u64, receive_ns: u64) -> u64 {
+    if client_ns != 0 {
+        client_ns
+    } else {
+        receive_ns
     }
 }
 

@@ -109,6 +109,8 @@ fn a_recorded_run_replays_bit_for_bit() {
     assert_eq!(count_of(recording::FRAMES_TOPIC), FRAMES);
     assert_eq!(count_of(recording::CONTACTS_TOPIC), FRAMES);
     assert_eq!(count_of(recording::SPEC_TOPIC), 1);
+    // The Foxglove scene (on by default): one update per frame and one per reply.
+    assert_eq!(count_of(recording::SCENE_TOPIC), 2 * FRAMES);
     let mut spec_seen = false;
     let (mut frame_messages, mut frame_bytes) = (0u64, 0usize);
     let full = wire::FRAME_HEADER_BYTES + 4 + 4 * scene.state(0).len();
