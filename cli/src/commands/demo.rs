@@ -45,6 +45,9 @@ pub struct DemoArgs {
     /// before: about 100 KB per frame for the scripted colonoscopy).
     #[arg(long)]
     pub no_record: bool,
+    /// Record without the Foxglove scene channel (`lumen record --no-scene`).
+    #[arg(long)]
+    pub no_scene: bool,
 }
 
 /// Why the demo stopped before its report.
@@ -138,6 +141,9 @@ impl Run<'_> {
         if !self.args.no_record {
             let mut record = Command::new(&exe);
             record.args(["record", &session, "--log", "warn", "--prefix", self.prefix, "-o"]).arg(self.args.out.join("run.mcap"));
+            if self.args.no_scene {
+                record.arg("--no-scene");
+            }
             if let Some(ep) = &zenoh {
                 record.args(["--zenoh", ep]);
             }

@@ -4,7 +4,7 @@
 
 use super::transport::TransportArgs;
 use super::CliResult;
-use crate::recording::{wall_ns, Missed, Writer};
+use crate::recording::{wall_ns, Missed, Writer, WriterOptions};
 use clap::Args;
 use lumen_client::{Error, Observed};
 use lumen_service::daemon::{block_termination_signals, wait_signal};
@@ -19,6 +19,11 @@ pub struct RecordArgs {
     /// The MCAP file to write (replaced if it exists).
     #[arg(long, short, value_name = "FILE")]
     pub output: PathBuf,
+    /// Leave out the `/lumen/scene` channel (Foxglove's `foxglove.SceneUpdate`: the scope every
+    /// frame, the colon at most once a second, the contacts of every reply, for Foxglove's or
+    /// Lichtblick's 3D panel); the frames, replies and replay do not need it.
+    #[arg(long)]
+    pub no_scene: bool,
     #[command(flatten)]
     pub transport: TransportArgs,
 }
@@ -32,7 +37,8 @@ pub fn run(args: RecordArgs) -> CliResult {
     let client = args.transport.client("lumen record")?;
     let mut observer = client.observe(args.session)?;
     let info = observer.info().clone();
-    let mut writer = Writer::create(&args.output, &info.spec, info.session, &info.transport.to_string())?;
+    let options = WriterOptions { scene: !args.no_scene };
+    let mut writer = Writer::create_with(&args.output, &info.spec, info.session, &info.transport.to_string(), options)?;
     // One line on stdout once observing: scripts and tests wait for it.
     println!("lumen record: recording session {} to {}", info.session, args.output.display());
     let _ = std::io::stdout().flush();
@@ -63,10 +69,11 @@ pub fn run(args: RecordArgs) -> CliResult {
     let written = writer.finish(gaps.missed)?;
     let why = outcome?;
     println!(
-        "lumen record: {why}; {} frames, {} replies, {} contacts, missed {} frames and {} replies, {} bytes in {}",
+        "lumen record: {why}; {} frames, {} replies, {} contacts, {} scene updates, missed {} frames and {} replies, {} bytes in {}",
         written.frames,
         written.replies,
         written.contacts,
+        written.scene,
         gaps.missed.frames,
         gaps.missed.replies,
         written.bytes,
