@@ -51,6 +51,9 @@ pub enum CliError {
     /// Writing or reading a recording.
     #[error(transparent)]
     Recording(#[from] RecordingError),
+    /// The live view's server.
+    #[error(transparent)]
+    View(#[from] lumen_view::ViewError),
     /// Writing JSON.
     #[error(transparent)]
     Json(#[from] serde_json::Error),

@@ -10,7 +10,8 @@
 //! - [`demo_report`]: `lumen demo`'s summary, report and plots; [`procs`]: its child processes.
 //! - [`error`]: [`CliError`], the one error type of every subcommand.
 //! - [`foxglove`]: a recording's `/lumen/scene` channel, Foxglove's `foxglove.SceneUpdate`.
-//! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`).
+//! - [`recording`]: MCAP recordings of a session (`lumen record`, `lumen replay`);
+//!   [`playback`]: a recording held for `lumen view run.mcap`, any frame in any order.
 
 pub mod commands;
 pub mod demo_report;
@@ -19,6 +20,7 @@ pub mod figures;
 pub mod foxglove;
 pub mod ipc;
 pub mod procs;
+pub mod playback;
 pub mod recording;
 
 pub use error::{CliError, CliResult};

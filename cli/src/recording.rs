@@ -489,7 +489,7 @@ impl Recording {
 }
 
 /// Every message of the file, an error (and nothing more) where reading fails.
-fn messages(path: &Path) -> Result<impl Iterator<Item = Result<mcap::Message<'static>, RecordingError>>, RecordingError> {
+pub(crate) fn messages(path: &Path) -> Result<impl Iterator<Item = Result<mcap::Message<'static>, RecordingError>>, RecordingError> {
     let file = File::open(path).map_err(|source| RecordingError::Io { path: path.to_owned(), source })?;
     let path = path.to_owned();
     let mut count = 0u64;
@@ -561,7 +561,7 @@ fn encode_delta(last: &mut [u32], state: &[f32], out: &mut Vec<u8>) {
 
 /// Decodes a frame message into its header and `state` (which holds the frame decoded before
 /// it on the topic, and becomes this one's floats).
-fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, FrameDecodeError> {
+pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, FrameDecodeError> {
     let header = FrameHeader::read(bytes)?;
     let mut r = Words(&bytes[wire::FRAME_HEADER_BYTES..]);
     let floats = header.floats as usize;

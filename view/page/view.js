@@ -128,8 +128,11 @@
     rebuild(); panel(msg.stats); history.push([msg.stats.max_depth, msg.stats.detect_us]); if (history.length > 230) history.shift();
     if (!cam.fitted) fit();
     draw(); view.ready = true;
-    sock.send(JSON.stringify({ op: "ready" }));
+    // Held: the picture stays on this frame, and the server sends nothing more until released.
+    if ($("hold").checked) waiting = true; else sock.send(JSON.stringify({ op: "ready" }));
   }
+  let waiting = false;
+  $("hold").addEventListener("change", () => { if (!$("hold").checked && waiting && sock && sock.readyState === 1) { waiting = false; sock.send(JSON.stringify({ op: "ready" })); } });
 
   function rebuild() {
     for (const w of walls) if (w.dirty) { upload(w.mesh, w.pos, w.nor, null, null); w.dirty = false; }
@@ -174,7 +177,7 @@
     for (const r of rods) go(r.mesh, gl.TRIANGLES);
     // The wall over the scope, see-through; contacts over both, so a press is never hidden.
     gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
-    for (const w of walls) go(w.mesh, gl.TRIANGLES);
+    if ($("wall").checked) for (const w of walls) go(w.mesh, gl.TRIANGLES);
     gl.disable(gl.DEPTH_TEST); gl.uniform1f(U.lit, 0);
     go(contactMesh, gl.TRIANGLES); go(arrowMesh, gl.LINES);
     gl.depthMask(true); gl.bindVertexArray(null);
@@ -211,7 +214,7 @@
     if (drag.pan) { const s = cam.dist / 800, r = [-Math.sin(cam.yaw), Math.cos(cam.yaw), 0]; cam.target = add(cam.target, add(mul(r, -dx * s), [0, 0, dy * s])); }
     else { cam.yaw -= dx * 0.01; cam.pitch = Math.max(-1.55, Math.min(1.55, cam.pitch + dy * 0.01)); } draw(); });
   canvas.addEventListener("wheel", (e) => { e.preventDefault(); cam.dist *= Math.exp(e.deltaY * 0.001); draw(); }, { passive: false });
-  ["follow", "scopecam"].forEach((id) => $(id).addEventListener("change", draw));
+  ["follow", "scopecam", "wall"].forEach((id) => $(id).addEventListener("change", draw));
 
   // ---- playback of a recording: every control goes to the server, which plays the file
   const send = (o) => sock && sock.readyState === 1 && sock.send(JSON.stringify(o));

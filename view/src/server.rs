@@ -98,6 +98,7 @@ impl Shared {
 /// A running view server; stops when dropped.
 pub struct Viewer {
     addr: SocketAddr,
+    started: std::time::Instant,
     shared: Arc<Shared>,
     controls: Receiver<Control>,
 }
@@ -119,7 +120,7 @@ impl Viewer {
         });
         let s = shared.clone();
         std::thread::Builder::new().name("lumen-view-accept".into()).spawn(move || accept(listener, s)).map_err(ViewError::Thread)?;
-        Ok(Self { addr: local, shared, controls })
+        Ok(Self { addr: local, started: std::time::Instant::now(), shared, controls })
     }
 
     /// The page's address, `http://127.0.0.1:PORT/`.
@@ -158,6 +159,11 @@ impl Viewer {
     /// The next control, waiting up to `timeout`.
     pub fn control_timeout(&self, timeout: Duration) -> Option<Control> {
         self.controls.recv_timeout(timeout).ok()
+    }
+
+    /// How long the server has run.
+    pub fn uptime(&self) -> Duration {
+        self.started.elapsed()
     }
 
     /// What has been sent so far.

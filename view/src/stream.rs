@@ -118,8 +118,8 @@ pub struct Stats {
     /// The client's frame rate, frames per second (from frame numbers over the observer's
     /// clock, or the recording's timestamps).
     pub fps: f64,
-    /// From the frame to its reply as the observer saw them, microseconds (`None` in a
-    /// recording, which keeps no arrival times of frames).
+    /// The daemon's turnaround (a frame in to its reply out, p50 over its last seconds, from
+    /// its status report), microseconds; `None` in a recording, or before the daemon has it.
     pub turnaround_us: Option<f64>,
     /// The daemon's detection time of this frame, microseconds.
     pub detect_us: f64,

@@ -48,6 +48,16 @@ pub struct DemoArgs {
     /// Record without the Foxglove scene channel (`lumen record --no-scene`).
     #[arg(long)]
     pub no_scene: bool,
+    /// Watch the run in the browser: `lumen view` attached to the session (its address is
+    /// printed before the run starts).
+    #[arg(long)]
+    pub view: bool,
+    /// Where `--view` serves its page.
+    #[arg(long, default_value = "127.0.0.1:7480", value_name = "ADDR")]
+    pub view_listen: String,
+    /// With `--view`: open the page in the system's browser.
+    #[arg(long)]
+    pub open: bool,
 }
 
 /// Why the demo stopped before its report.
@@ -107,7 +117,7 @@ pub fn run(args: DemoArgs) -> CliResult<ExitCode> {
 struct Run<'a> {
     args: &'a DemoArgs,
     prefix: &'a str,
-    /// Started in order: daemon, sim, recorder.
+    /// Started in order: daemon, sim, then the recorder and the view when asked for.
     procs: Vec<Proc>,
 }
 
@@ -148,7 +158,20 @@ impl Run<'_> {
                 record.args(["--zenoh", ep]);
             }
             self.procs.push(Proc::spawn("recorder", record)?);
-            self.expect_line(2, "lumen record: recording session", Duration::from_secs(30))?;
+            self.expect_line(self.procs.len() - 1, "lumen record: recording session", Duration::from_secs(30))?;
+        }
+        if self.args.view {
+            let mut view = Command::new(&exe);
+            view.args(["view", &session, "--log", "warn", "--prefix", self.prefix, "--listen", &self.args.view_listen]);
+            if let Some(ep) = &zenoh {
+                view.args(["--zenoh", ep]);
+            }
+            if self.args.open {
+                view.arg("--open");
+            }
+            self.procs.push(Proc::spawn("view", view)?);
+            let line = self.expect_line(self.procs.len() - 1, "lumen view: serving", Duration::from_secs(30))?;
+            println!("{line} (the run, live)");
         }
         // Released: the run starts.
         self.procs[1].send_line("go")?;
@@ -244,7 +267,7 @@ impl Run<'_> {
     /// The recorder's last line once it has finished its file (it ends when the session does;
     /// SIGINT after 10 s); `None` without a recorder.
     fn finish_recorder(&mut self) -> Option<String> {
-        let rec = self.procs.get_mut(2)?;
+        let rec = self.procs.iter_mut().find(|p| p.name == "recorder")?;
         let start = Instant::now();
         let (mut last, mut signalled) = (None, false);
         loop {

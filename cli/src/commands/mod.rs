@@ -9,6 +9,7 @@ pub mod serve;
 pub mod sim;
 pub mod status;
 pub mod transport;
+pub mod view;
 
 pub use crate::error::{CliError, CliResult};
 use clap::{Parser, Subcommand};
@@ -41,6 +42,8 @@ pub enum Command {
     Record(record::RecordArgs),
     /// Play a recording back as a new session and compare the contacts with the recorded ones.
     Replay(replay::ReplayArgs),
+    /// A session (or a recording) in the browser: the wall, the scope and the contacts, live.
+    View(view::ViewArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -59,6 +62,7 @@ impl Cli {
             Command::Demo(a) => demo::run(a),
             Command::Record(a) => done(record::run(a)),
             Command::Replay(a) => done(replay::run(a)),
+            Command::View(a) => done(view::run(a)),
             Command::Bench(b) => done(b.run()),
         };
         match result {
