@@ -3,9 +3,9 @@
 "use strict";
 (function () {
   const canvas = document.getElementById("gl");
-  const gl = canvas.getContext("webgl2", { antialias: true, xrCompatible: true, preserveDrawingBuffer: true });
+  const gl = canvas.getContext("webgl2", { antialias: false, xrCompatible: true, preserveDrawingBuffer: true });
   const $ = (id) => document.getElementById(id);
-  const view = (window.lumenView = { ready: false, frames: 0, stats: null, scene: null, viewProj: null, width: 0, height: 0, tip: null, contacts: [], error: null });
+  const view = (window.lumenView = { ready: false, frames: 0, stats: null, scene: null, viewProj: null, width: 0, height: 0, tip: null, contacts: [], bytes: 0, timing: null, error: null });
   if (!gl) { view.error = "no WebGL2"; document.body.insertAdjacentHTML("beforeend", "<p style='position:absolute;top:40%;width:100%;text-align:center'>This browser has no WebGL2.</p>"); return; }
 
   // ---- shaders: one lit program (position, normal, colour per vertex) for every mesh
@@ -105,6 +105,7 @@
   }
 
   function onFrame(buf) {
+    const t0 = performance.now();
     const dv = new DataView(buf);
     if (dv.getUint32(0, true) !== 0x57564d4c || !scene) return;
     const jl = dv.getUint32(4, true);
@@ -125,9 +126,10 @@
     view.contacts = contacts; view.stats = msg.stats; view.frames++; dropped += msg.dropped;
     const last = rods.length ? rods[rods.length - 1].points : [];
     view.tip = last.length ? last[last.length - 1] : null;
-    rebuild(); panel(msg.stats); history.push([msg.stats.max_depth, msg.stats.detect_us]); if (history.length > 230) history.shift();
+    const t1 = performance.now(); rebuild(); const t2 = performance.now(); panel(msg.stats); history.push([msg.stats.max_depth, msg.stats.detect_us]); if (history.length > 230) history.shift();
     if (!cam.fitted) fit();
-    draw(); view.ready = true;
+    draw(); view.ready = true; view.bytes += buf.byteLength;
+    view.timing = { decode_ms: t1 - t0, build_ms: t2 - t1, draw_ms: performance.now() - t2 };
     // Held: the picture stays on this frame, and the server sends nothing more until released.
     if ($("hold").checked) waiting = true; else sock.send(JSON.stringify({ op: "ready" }));
   }

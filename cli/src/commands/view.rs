@@ -39,8 +39,9 @@ pub struct ViewArgs {
     /// Address the page is served on (loopback by default; port 0 picks a free one).
     #[arg(long, default_value = "127.0.0.1:7480", value_name = "ADDR")]
     pub listen: String,
-    /// Wall rows per ring segment drawn (1 to 16).
-    #[arg(long, default_value_t = 4)]
+    /// Wall rows drawn per ring segment, 1 to 16 (1: a row per ring, enough where rings are a
+    /// millimetre or two apart, as in the generated and the GCA colons).
+    #[arg(long, default_value_t = 1)]
     pub steps: usize,
     /// Open the page in the system's browser (`xdg-open`, or `open` on macOS).
     #[arg(long)]
