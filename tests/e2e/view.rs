@@ -255,6 +255,25 @@ fn a_live_session_is_drawn_where_its_frame_puts_it() {
     driver.join().expect("the driver");
 }
 
+#[test]
+fn without_a_session_the_view_follows_the_first_then_the_next_to_open() {
+    let prefix = unique_prefix("viewnext");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let client = Client::local_with(LocalOptions { prefix: Some(prefix.clone()), name: Some("view-test".into()) }).expect("a client");
+    let first = client.open_session(&scene.spec).unwrap();
+    let (view, url) = start_view(&["--prefix", &prefix]);
+    assert!(view.line_starting(&format!("lumen view: session {}", first.id()), WAIT).is_some(), "the view follows the session that is open");
+    let got = |url: &str| std::net::TcpStream::connect(url.trim_start_matches("http://").trim_end_matches('/')).is_ok();
+    assert!(got(&url));
+    drop(first);
+    // The first session ended; the view waits for the next one and follows it on the same page.
+    std::thread::sleep(Duration::from_millis(300));
+    let second = client.open_session(&scene.spec).unwrap();
+    assert!(view.line_starting(&format!("lumen view: session {}", second.id()), WAIT).is_some(), "the view follows the next session to open");
+    assert!(got(&url), "the same address serves on");
+}
+
 /// Records `frames` frames of the test scene through the real daemon and `lumen record`.
 fn record(prefix: &str, path: &Path, frames: u64) {
     let _daemon = Daemon::start(Path::new(LUMEN), prefix, None, &[]);

@@ -177,6 +177,9 @@ fn next_session(client: &Client, seen: &HashSet<u64>) -> CliResult<Option<u64>> 
     let mut said = false;
     loop {
         let report = client.status()?;
+        if !said && !report.sessions.is_empty() {
+            eprint!("{}", super::status::table(&report));
+        }
         if let Some(s) = report.sessions.iter().find(|s| s.transport == client.transport() && !seen.contains(&s.session)) {
             return Ok(Some(s.session));
         }
