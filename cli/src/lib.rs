@@ -19,8 +19,8 @@ pub mod error;
 pub mod figures;
 pub mod foxglove;
 pub mod ipc;
-pub mod procs;
 pub mod playback;
+pub mod procs;
 pub mod recording;
 
 pub use error::{CliError, CliResult};

@@ -18,7 +18,7 @@
 //! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta (`u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
 //! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
 //! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
-//! | `/lumen/scene` | `json` | `foxglove.SceneUpdate`, `jsonschema` (Foxglove's own schema) | per frame the scope as a line, and the colon as triangles on the first frame and then at most once a second of log time; per reply its contacts as arrows (see [`crate::foxglove`]); left out by `lumen record --no-scene` ([`WriterOptions`]) |
+//! | `/lumen/scene` | `json` | `foxglove.SceneUpdate`, `jsonschema` (Foxglove's own schema) | at most 60 a second of log time, the scope as a line and the reply's contacts as arrows, and the colon as triangles on the first frame and then at most once a second (see [`crate::foxglove`]); left out by `lumen record --no-scene` ([`WriterOptions`]) |
 //!
 //! The scene channel is for viewers (Foxglove, Lichtblick: the 3D panel draws it with no
 //! plugin); [`Recording::open`] and replays skip it, and everything they read is in the others.
@@ -336,10 +336,11 @@ impl Writer {
         self.written.contacts += contacts.len() as u64;
         if let Some(scene) = &mut self.scene {
             scene.buf.clear();
-            scene.writer.contacts(log_time(header.client_time_ns, receive_ns), contacts, &mut scene.buf);
-            let channel = scene.channel;
-            self.put(channel, header.client_time_ns, receive_ns, true)?;
-            self.written.scene += 1;
+            if scene.writer.contacts(log_time(header.client_time_ns, receive_ns), contacts, &mut scene.buf) {
+                let channel = scene.channel;
+                self.put(channel, header.client_time_ns, receive_ns, true)?;
+                self.written.scene += 1;
+            }
         }
         Ok(())
     }

@@ -10,6 +10,11 @@
 //! [`SceneWriter`] turns what the recorder sees into updates, every entity in frame
 //! [`FRAME_ID`] with lifetime 0 (until replaced: an entity replaces the one of the same id):
 //!
+//! Updates are for a person watching: at most [`SCENE_EVERY_NS`] apart in log time (60 a
+//! second, a display's rate), the frames between are left out of this channel (never out of
+//! `/lumen/frames` and `/lumen/contacts`): an unpaced physics logs 1,000 frames a second, and
+//! the arrows of every reply would more than double the file.
+//!
 //! - per frame ([`SceneWriter::frame`]): each rod body (the scope) as a `LINE_STRIP` through
 //!   its points, as thick as its diameter (id `rod/<name>`); and each tube body (the colon) as
 //!   a triangle list (id `tube/<name>`): its wall points, one row per ring (the ring's control
@@ -45,6 +50,9 @@ pub const SCENE_UPDATE_SCHEMA: &str = include_str!("SceneUpdate.json");
 pub const SCENE_UPDATE: &str = "foxglove.SceneUpdate";
 /// The frame every entity is in (Foxglove's 3D panel takes the only frame as its display frame).
 pub const FRAME_ID: &str = "lumen";
+/// Log time at least between two updates of the scope, and between two of the contacts, ns
+/// (60 a second).
+pub const SCENE_EVERY_NS: u64 = 1_000_000_000 / 60;
 /// Log time at least between two updates carrying the colon (tube bodies), ns.
 pub const COLON_EVERY_NS: u64 = 1_000_000_000;
 /// Rows of the drawn wall per ring segment (1: the rings themselves).
@@ -76,6 +84,9 @@ pub struct SceneWriter {
     radius: Vec<f32>,
     /// Log time of the last update that carried the colon.
     last_colon: Option<u64>,
+    /// Log times of the last frame update and of the last contacts update.
+    last_frame: Option<u64>,
+    last_contacts: Option<u64>,
     /// Wall points of the tubes of the current update, all tubes one after another.
     wall: Vec<[f32; 3]>,
     arrows: Vec<Arrow>,
@@ -102,21 +113,21 @@ impl SceneWriter {
             }
             offset += b.floats();
         }
-        Self { bodies, floats: offset, grid: WallGrid { steps: WALL_STEPS, alpha: spec.alpha }, radius, last_colon: None, wall: Vec::new(), arrows: Vec::new() }
+        Self { bodies, floats: offset, grid: WallGrid { steps: WALL_STEPS, alpha: spec.alpha }, radius, last_colon: None, last_frame: None, last_contacts: None, wall: Vec::new(), arrows: Vec::new() }
     }
 
     /// Appends to `out` the update of a frame logged at `log_time` (ns) with floats `state`:
     /// the rods, and the tubes when they are due (see the module doc). Returns `None` (and
-    /// appends nothing) for a state of the wrong length, else whether the tubes went with it.
+    /// appends nothing) for a state of the wrong length or a frame within [`SCENE_EVERY_NS`]
+    /// of the last update, else whether the tubes went with it.
     pub fn frame(&mut self, log_time: u64, state: &[f32], out: &mut Vec<u8>) -> Option<bool> {
-        if state.len() != self.floats {
+        if state.len() != self.floats || !due(&mut self.last_frame, log_time, SCENE_EVERY_NS) {
             return None;
         }
         let has_tube = self.bodies.iter().any(|b| matches!(b, Body::Tube { .. }));
-        let colon = has_tube && self.last_colon.is_none_or(|last| log_time < last || log_time - last >= COLON_EVERY_NS);
+        let colon = has_tube && due(&mut self.last_colon, log_time, COLON_EVERY_NS);
         self.wall.clear();
         if colon {
-            self.last_colon = Some(log_time);
             for b in &self.bodies {
                 if let Body::Tube { offset, rings, spokes, .. } = *b {
                     let data = &state[offset..offset + rings * (spokes + 1) * 3];
@@ -129,8 +140,12 @@ impl SceneWriter {
         Some(colon)
     }
 
-    /// Appends to `out` the update of a reply logged at `log_time`: its contacts as arrows.
-    pub fn contacts(&mut self, log_time: u64, contacts: &[Contact], out: &mut Vec<u8>) {
+    /// Appends to `out` the update of a reply logged at `log_time`, its contacts as arrows,
+    /// unless it comes within [`SCENE_EVERY_NS`] of the last; returns whether it did.
+    pub fn contacts(&mut self, log_time: u64, contacts: &[Contact], out: &mut Vec<u8>) -> bool {
+        if !due(&mut self.last_contacts, log_time, SCENE_EVERY_NS) {
+            return false;
+        }
         self.arrows.clear();
         for c in contacts {
             let r = self.radius.get(c.body_a as usize).copied().unwrap_or(1.0);
@@ -142,7 +157,18 @@ impl SceneWriter {
         let entity = Entity { time, id: CONTACTS_ID, arrows: &self.arrows, lines: &[], triangles: &[] };
         let update = Update { entities: std::slice::from_ref(&entity) };
         serde_json::to_writer(&mut *out, &update).expect("a scene update serialises to memory");
+        true
     }
+}
+
+/// Whether an update at `log_time` is due, `every` ns after the `last` one (or at once when
+/// the clock went back, a client that restarted it); if so, `last` becomes `log_time`.
+fn due(last: &mut Option<u64>, log_time: u64, every: u64) -> bool {
+    let yes = last.is_none_or(|l| log_time < l || log_time - l >= every);
+    if yes {
+        *last = Some(log_time);
+    }
+    yes
 }
 
 /// `v`, or 0 where it is not finite.
