@@ -274,6 +274,39 @@ fn without_a_session_the_view_follows_the_first_then_the_next_to_open() {
     assert!(got(&url), "the same address serves on");
 }
 
+#[test]
+fn a_zenoh_session_streams_to_a_page_socket() {
+    // No browser: a WebSocket client reads what a page would, over a session on zenoh.
+    let prefix = unique_prefix("viewz");
+    let daemon = Daemon::start(Path::new(LUMEN), &prefix, Some(free_port()), &[]);
+    let scene = scene();
+    let client = Client::zenoh(&daemon.endpoint()).expect("a zenoh client");
+    let mut session = client.open_session(&scene.spec).unwrap();
+    let (_view, url) = start_view(&[&session.id().to_string(), "--zenoh", &daemon.endpoint()]);
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let (mut ws, _) = tungstenite::connect(format!("ws://{addr}/ws")).expect("the page socket");
+    let first = ws.read().unwrap();
+    if let tungstenite::stream::MaybeTlsStream::Plain(t) = ws.get_mut() {
+        t.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+    }
+    let scene_msg: Value = serde_json::from_str(first.to_text().unwrap()).unwrap();
+    assert_eq!((scene_msg["type"].as_str(), scene_msg["session"].as_u64()), (Some("scene"), Some(session.id())));
+    let mut shown = None;
+    for k in 0..400u64 {
+        session.submit_state(&scene.state(k)).unwrap();
+        session.contacts(WAIT).unwrap();
+        if let Ok(tungstenite::Message::Binary(b)) = ws.read() {
+            let n = u32::from_le_bytes(b[4..8].try_into().unwrap()) as usize;
+            assert_eq!(u32::from_le_bytes(b[0..4].try_into().unwrap()), 0x5756_4D4C, "LMVW");
+            let json: Value = serde_json::from_slice(&b[8..8 + n]).unwrap();
+            shown = Some(json["stats"]["frame"].as_u64().unwrap());
+            break;
+        }
+    }
+    let frame = shown.expect("a frame reached the socket");
+    assert!(frame < 400);
+}
+
 /// Records `frames` frames of the test scene through the real daemon and `lumen record`.
 fn record(prefix: &str, path: &Path, frames: u64) {
     let _daemon = Daemon::start(Path::new(LUMEN), prefix, None, &[]);
