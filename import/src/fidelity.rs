@@ -7,6 +7,10 @@
 //! folds, and a broken import (a surface in the wrong units, rings borrowed everywhere) lies far
 //! from it everywhere. [`wall_to_surface`] samples every patch at its corners and at its middles
 //! (`u`, `l` in {0, 1/2}) and measures each sample's distance to the nearest triangle.
+//!
+//! Where the far part comes from is told apart: the points whose spokes (the one or two of its
+//! ring, or of both rings, it is drawn between) were all kept measure the wall's resolution
+//! (chords across folds between spokes, patches across tight bends), the others the repairs.
 
 use lumen_detect::spline::Cubic;
 use lumen_detect::{Tube, V3};
@@ -26,15 +30,24 @@ pub struct Fidelity {
     pub max: f64,
     /// Wall points measured.
     pub samples: usize,
+    /// The 99th percentile over the points drawn between kept spokes only (no repaired spoke
+    /// among those it interpolates).
+    pub kept_p99: f64,
+    /// Points drawn from at least one repaired spoke.
+    pub near_repaired: usize,
 }
 
 /// The wall of `tube` with its radial vectors divided by `inflate` (inflation departs from the
-/// surface on purpose; this measures the import itself) against `surface`.
-pub fn wall_to_surface(tube: &Tube, inflate: f32, surface: &TriMesh) -> Fidelity {
+/// surface on purpose; this measures the import itself) against `surface`. `repaired` marks the
+/// spokes (ring after ring) that were not a ray's kept hit; empty when none were.
+pub fn wall_to_surface(tube: &Tube, inflate: f32, surface: &TriMesh, repaired: &[bool]) -> Fidelity {
     let (n, b) = (tube.rings(), tube.spokes);
     let at = |i: usize| V3::from(tube.points[i]);
     let spoke = |i: usize, k: usize| V3::from(tube.spoke(i, k)) / inflate;
+    let fixed = |i: usize, k: usize| repaired.get(i * b + k).copied().unwrap_or(false);
     let mut d: Vec<f64> = Vec::with_capacity(n * b * 4);
+    let mut kept: Vec<f64> = Vec::with_capacity(n * b * 4);
+    let mut near = 0;
     for i in 0..n {
         let us: &[f32] = if i + 1 < n { &[0.0, 0.5] } else { &[0.0] };
         let c = (i + 1 < n).then(|| Cubic::of_chain(at, n, i, ALPHA));
@@ -47,7 +60,15 @@ pub fn wall_to_surface(tube: &Tube, inflate: f32, surface: &TriMesh) -> Fidelity
                 let v1 = spoke(i, k1) * (1.0 - u) + spoke(j, k1) * u;
                 for l in [0.0, 0.5] {
                     let p = centre + v0 * (1.0 - l) + v1 * l;
-                    d.push(surface.distance_to_local_point(Vector::new(p.x, p.y, p.z), false) as f64);
+                    let dist = surface.distance_to_local_point(Vector::new(p.x, p.y, p.z), false) as f64;
+                    let ks: &[usize] = if l == 0.0 { &[k] } else { &[k, k1] };
+                    let is: &[usize] = if u == 0.0 { &[i] } else { &[i, j] };
+                    if is.iter().any(|&i| ks.iter().any(|&k| fixed(i, k))) {
+                        near += 1;
+                    } else {
+                        kept.push(dist);
+                    }
+                    d.push(dist);
                 }
             }
         }
@@ -56,6 +77,7 @@ pub fn wall_to_surface(tube: &Tube, inflate: f32, surface: &TriMesh) -> Fidelity
         return Fidelity::default();
     }
     d.sort_by(f64::total_cmp);
-    let q = |x: f64| d[((d.len() - 1) as f64 * x).round() as usize];
-    Fidelity { p50: q(0.5), p99: q(0.99), max: d[d.len() - 1], samples: d.len() }
+    kept.sort_by(f64::total_cmp);
+    let q = |v: &[f64], x: f64| if v.is_empty() { 0.0 } else { v[((v.len() - 1) as f64 * x).round() as usize] };
+    Fidelity { p50: q(&d, 0.5), p99: q(&d, 0.99), max: d[d.len() - 1], samples: d.len(), kept_p99: q(&kept, 0.99), near_repaired: near }
 }

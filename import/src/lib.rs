@@ -12,8 +12,11 @@
 //!    [`ImportReport`] (never silently): rays that miss; rays whose first hit is a wall seen from
 //!    outside; rays that reach a *neighbouring loop* where the colon touches itself and the
 //!    surface has a gap (the hit point is much nearer a part of the midline far along the arc
-//!    than its own ring's point); and outliers (far above the ring's median, or a jump against
-//!    the same spoke of both neighbouring rings). A repaired spoke is interpolated from the
+//!    than its own ring's point, and in that part's sight: no wall between them); and outliers
+//!    (a jump against the same spoke of both neighbouring rings, or a run of spokes stepping up
+//!    from its ring's neighbouring spokes and back down). A hit far from the ring's point but
+//!    continuous with its neighbours is the ring's own wall (a midline off the lumen's centre, a
+//!    pocket): it is kept. A repaired spoke is interpolated from the
 //!    nearest kept spokes of its ring when the gap is at most a quarter turn, else set to the
 //!    ring's median (rings with too few kept rays borrow the median of the nearest good rings).
 //! 4. `inflate` scales every radial vector: the GCA scan was not insufflated, and `inflate = 2`
