@@ -401,6 +401,82 @@ fn enter_vr_shows_only_when_the_browser_offers_an_immersive_session() {
     let _ = std::fs::remove_file(&path);
 }
 
+/// A WebXR test double that runs: `navigator.xr` offers an immersive session whose frames
+/// come every 30 ms with one view, a viewer 3 m in front of the room's centre at 1.4 m eye
+/// height looking at it (90 degree field of view), drawing into the page's own canvas.
+const FAKE_XR_SESSION: &str = "(() => {
+    const W = innerWidth, H = innerHeight, f = 1, n = 0.1, fa = 100;
+    const proj = new Float32Array([f / (W / H), 0, 0, 0, 0, f, 0, 0, 0, 0, (fa + n) / (n - fa), -1, 0, 0, 2 * fa * n / (n - fa), 0]);
+    const view = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1.4, -3, 1]);
+    const frame = { getViewerPose: () => ({ views: [{ eye: 'none', projectionMatrix: proj, transform: { inverse: { matrix: view } } }] }) };
+    class Session { constructor() { this.renderState = {}; }
+      updateRenderState(s) { Object.assign(this.renderState, s); }
+      requestReferenceSpace() { return Promise.resolve({}); }
+      addEventListener() {}
+      requestAnimationFrame(cb) { return setTimeout(() => cb(performance.now(), frame), 30); } }
+    window.XRWebGLLayer = class { constructor() { this.framebuffer = null; } getViewport() { return { x: 0, y: 0, width: W, height: H }; } };
+    WebGL2RenderingContext.prototype.makeXRCompatible = () => Promise.resolve();
+    window.xrTest = { proj: Array.from(proj), view: Array.from(view) };
+    Object.defineProperty(navigator, 'xr', { configurable: true, value: {
+      isSessionSupported: (m) => Promise.resolve(m === 'immersive-vr'),
+      requestSession: () => Promise.resolve(new Session()) } });
+  })();";
+
+/// `a * b`, 4x4 column-major.
+fn mat4mul(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut m = vec![0.0; 16];
+    for c in 0..4 {
+        for r in 0..4 {
+            m[c * 4 + r] = (0..4).map(|k| a[k * 4 + r] * b[c * 4 + k]).sum();
+        }
+    }
+    m
+}
+
+#[test]
+fn in_vr_the_colon_is_at_room_scale_with_the_same_contacts() {
+    let prefix = unique_prefix("viewvr");
+    let path: PathBuf = std::env::temp_dir().join(format!("{prefix}run.mcap"));
+    record(&prefix, &path, 3);
+    let rec = Recording::open(&path).unwrap();
+    let frame0 = rec.frames().unwrap().next().unwrap().unwrap();
+    let contacts = rec.replies[&frame0.header.frame].contacts.clone();
+    assert!(!contacts.is_empty());
+    let (_view, url) = start_view(&[path.to_str().unwrap(), "--paused"]);
+    let browser = Browser::launch().expect("headless Chromium (Debian's chromium package)");
+    let mut page = browser.new_page("about:blank").unwrap();
+    page.set_viewport(SIZE.0, SIZE.1).unwrap();
+    page.add_init_script(FAKE_XR_SESSION).unwrap();
+    page.navigate(&url).unwrap();
+    page.wait_for("lumenView.frames > 0 && lumenView.xr === true", WAIT).expect("the page offers VR");
+    page.eval("document.getElementById('enter-vr').click(); true").unwrap();
+    page.wait_for("lumenView.xrFrames > 3", WAIT).expect("the page draws in VR");
+    let s = shown(&mut page);
+    let v = page.eval("({ model: lumenView.xrModel, bounds: lumenView.bounds, t: xrTest })").unwrap();
+    assert!(s["error"].is_null(), "{}", s["error"]);
+    let nums = |x: &Value| -> Vec<f64> { x.as_array().unwrap().iter().map(|n| n.as_f64().unwrap()).collect() };
+    let (model, lo, hi) = (nums(&v["model"]), nums(&v["bounds"][0]), nums(&v["bounds"][1]));
+    // Room scale: the bounds' diagonal is 4 m, their centre at eye height (y up) at the viewer's
+    // origin; z up in the scene is y up in the room.
+    let apply = |m: &[f64], p: [f64; 3]| [0, 1, 2, 3].map(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+    let (a, b) = (apply(&model, [lo[0], lo[1], lo[2]]), apply(&model, [hi[0], hi[1], hi[2]]));
+    let diagonal = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+    assert!((diagonal - 4.0).abs() < 1e-3, "the colon is {diagonal} m across");
+    let centre = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0, (a[2] + b[2]) / 2.0];
+    assert!(centre[0].abs() < 1e-4 && (centre[1] - 1.4).abs() < 1e-4 && centre[2].abs() < 1e-4, "centred at eye height: {centre:?}");
+    let up = apply(&model, [lo[0], lo[1], lo[2] + 1.0]);
+    assert!((up[1] - a[1]) > 0.0 && (up[0] - a[0]).abs() < 1e-9 && (up[2] - a[2]).abs() < 1e-9, "z up is y up");
+    // The same contacts, drawn where the headset's view puts them.
+    let clip = mat4mul(&mat4mul(&nums(&v["t"]["proj"]), &nums(&v["t"]["view"])), &model);
+    let xr = serde_json::json!({ "viewProj": clip, "width": s["width"], "height": s["height"] });
+    let img = screenshot(&mut page, true, "vr");
+    let marks: Vec<(u32, u32)> = contacts.iter().filter_map(|c| project(&xr, c.point_b)).filter(|&p| !covered(&s, p)).collect();
+    assert!(!marks.is_empty(), "contacts in the headset's view");
+    let hit = marks.iter().filter(|&&p| near(&img, p, is_marker)).count();
+    assert_eq!(hit, marks.len(), "contact markers drawn in VR at {hit} of {} projected wall points", marks.len());
+    let _ = std::fs::remove_file(&path);
+}
+
 #[test]
 fn the_demo_with_view_shows_the_colonoscopy_live() {
     let out = std::env::temp_dir().join(format!("lumen-view-demo-{}-{}", std::process::id(), fastrand::u64(..)));

@@ -5,7 +5,7 @@
   const canvas = document.getElementById("gl");
   const gl = canvas.getContext("webgl2", { antialias: false, xrCompatible: true, preserveDrawingBuffer: true });
   const $ = (id) => document.getElementById(id);
-  const view = (window.lumenView = { ready: false, frames: 0, stats: null, scene: null, viewProj: null, width: 0, height: 0, tip: null, contacts: [], bytes: 0, timing: null, error: null });
+  const view = (window.lumenView = { ready: false, frames: 0, stats: null, scene: null, viewProj: null, width: 0, height: 0, tip: null, contacts: [], bytes: 0, timing: null, xrFrames: 0, xrModel: null, error: null });
   if (!gl) { view.error = "no WebGL2"; document.body.insertAdjacentHTML("beforeend", "<p style='position:absolute;top:40%;width:100%;text-align:center'>This browser has no WebGL2.</p>"); return; }
 
   // ---- shaders: one lit program (position, normal, colour per vertex) for every mesh
@@ -241,7 +241,8 @@
         // mm to a 4 m wide room, centred on the viewer at eye height, z up turned to y up.
         const [lo, hi] = view.bounds, c = mul(add(lo, hi), 0.5), s = 4 / Math.max(1, len(sub(hi, lo)));
         const model = new Float32Array([s, 0, 0, 0, 0, 0, -s, 0, 0, s, 0, 0, -c[0] * s, -c[2] * s, c[1] * s + 0, 1]); model[13] += 1.4;
-        for (const v of pose.views) { const vpt = layer.getViewport(v); gl.viewport(vpt.x, vpt.y, vpt.width, vpt.height); drawScene(mat4mul(v.projectionMatrix, v.transform.inverse.matrix), model); } };
+        for (const v of pose.views) { const vpt = layer.getViewport(v); gl.viewport(vpt.x, vpt.y, vpt.width, vpt.height); drawScene(mat4mul(v.projectionMatrix, v.transform.inverse.matrix), model); }
+        view.xrModel = Array.from(model); view.xrFrames++; };
       xrSession.requestAnimationFrame(onXR);
     } catch (e) { view.error = "VR: " + e; }
   };
