@@ -169,18 +169,16 @@ fn check_frame(page: &mut Page, s: &Value, spec: &lumen_proto::SceneSpec, state:
         })
         .filter(|&p| !covered(s, p))
         .collect();
-    assert!(mids.len() >= (rod - 1) / 2, "most of the scope is on the page ({} of {})", mids.len(), rod - 1);
+    // (The colonoscope's outer end runs off the page: the points on it are what is checked.)
+    assert!(mids.len() >= 10.min(rod - 1), "the scope is on the page ({} of {} points)", mids.len(), rod - 1);
     let on = mids.iter().filter(|&&p| near(&img, p, |px| is_scope(px) || is_marker(px))).count();
     assert!(on * 10 >= mids.len() * 9, "the scope is drawn at {on} of {} of its projected points", mids.len());
     // Contacts: a marker at every wall point that is not under the panel.
     let marks: Vec<(u32, u32)> = contacts.iter().filter_map(|c| project(s, c.point_b)).filter(|&p| !covered(s, p)).collect();
     let hit = marks.iter().filter(|&&p| near(&img, p, is_marker)).count();
     assert_eq!(hit, marks.len(), "contact markers drawn at {hit} of {} projected wall points", marks.len());
-    // Off the scope and the markers, away from the tube: the background.
-    let far = [state[0], state[1] + 40.0, state[2] + 40.0];
-    if let Some(p) = project(s, far).filter(|&p| !covered(s, p)) {
-        assert!(near(&img, p, is_background), "the page is background 40 mm off the tube");
-    }
+    // The fitted camera leaves a margin around the scene: the top right corner is background.
+    assert!(is_background(img.pixel(img.width - 4, 4)), "the background where nothing is");
 
     // Wall shown: every tip of the middle rings is covered by the wall's surface.
     let img = screenshot(page, true, name);
@@ -508,9 +506,20 @@ fn the_demo_with_view_shows_the_colonoscopy_live() {
     let img = screenshot(&mut page, true, "demo");
     let p = project(&s, [tip[0], tip[1], tip[2]]).expect("the tip is on the page");
     assert!(!covered(&s, p) && near(&img, p, |px| !is_background(px)), "something is drawn at the scope's tip");
-    // Ctrl-C: the demo stops its children (the view among them) and cleans up.
+    // The run ends (its view with it); its recording, viewed, is drawn where its frames put the
+    // colon, the scope and the contacts.
     let mut demo = demo;
-    demo.signal(libc::SIGINT);
-    assert!(demo.wait_exit(Duration::from_secs(60)).is_some(), "the demo ended on SIGINT");
+    assert!(demo.wait_exit(Duration::from_secs(300)).is_some_and(|s| s.success()), "the demo ran sound to its end");
+    let path = out.join("run.mcap");
+    let rec = Recording::open(&path).unwrap();
+    let frames: Vec<_> = rec.frames().unwrap().map(Result::unwrap).collect();
+    let at = (frames.len() / 2..frames.len()).find(|&i| rec.replies.get(&frames[i].header.frame).is_some_and(|r| r.contacts.len() >= 5)).expect("a recorded frame with contacts");
+    let (_view, url) = start_view(&[path.to_str().unwrap(), "--paused"]);
+    let mut page = open(&browser, &url);
+    page.eval(&format!("(() => {{ const s = document.getElementById('scrub'); s.value = '{at}'; s.dispatchEvent(new Event('input')); return true; }})()")).unwrap();
+    page.wait_for(&format!("lumenView.stats.index === {at}"), WAIT).expect("the scrubber moved the recording");
+    let s = shown(&mut page);
+    let reply = &rec.replies[&frames[at].header.frame];
+    check_frame(&mut page, &s, &rec.spec, &frames[at].state, &reply.contacts, reply.header.detect_ns, "demo-recording");
     let _ = std::fs::remove_dir_all(&out);
 }
