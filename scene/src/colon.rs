@@ -27,6 +27,13 @@
 //! shallower in the sigmoid. Below 1.5 m of midline the radii shrink in proportion (so a short
 //! colon is a scaled-down one, free of overlaps).
 //!
+//! **Hard variants.** [`ColonParams::narrowings`] narrow the lumen; [`ColonParams::tight_bends`]
+//! gather the turning of stretches of the midline into arcs tighter than the lumen (the bend
+//! check, and the wall gap check beside them, waived there only: [`TightBend`]);
+//! [`ColonParams::sigmoid_loop`] replaces the template's sigmoid with a loop that passes beside
+//! itself ([`SigmoidLoop`], every check kept, and its own: [`MIN_LOOP_TURN_DEG`],
+//! [`MAX_LOOP_PASS_GAP_MM`]). [`GeneratedColon`] reports what each became.
+//!
 //! **Rings.** Spoke `k` of a ring points along `cos(a) n + sin(a) b`, `a = 2 pi k / B`, with
 //! `(n, b)` a rotation-minimising frame and `b = t x n` (`t` the unit tangent): counter-
 //! clockwise about the tangent.
@@ -67,7 +74,62 @@ pub struct ColonParams {
     /// Places where the lumen narrows (default none): a spastic or collapsed segment, the anal
     /// canal. Each takes the whole section down to its radius.
     pub narrowings: Vec<Narrowing>,
+    /// Bends made tighter than the lumen (default none): each gathers the midline's turning
+    /// over its window into one circular arc whose radius is a fraction of the lumen's. This is
+    /// the explicit option that lets a bend past the generator's bend check
+    /// ([`MIN_BEND_RATIO`]): the check is waived inside these windows only, and so is the wall
+    /// gap check between two places both in or beside the same window (its inner wall folds
+    /// over itself); everywhere else both checks apply as for the default colon.
+    pub tight_bends: Vec<TightBend>,
+    /// A sigmoid that loops once around (default none): see [`SigmoidLoop`]. The generator's
+    /// checks all apply, and the loop's own ([`MIN_LOOP_TURN_DEG`], the gap between its two
+    /// passes in `[MIN_WALL_GAP_MM, MAX_LOOP_PASS_GAP_MM]`).
+    pub sigmoid_loop: Option<SigmoidLoop>,
 }
+
+/// A bend tighter than the lumen ([`ColonParams::tight_bends`]): the midline between
+/// `at_mm - half_window_mm` and `at_mm + half_window_mm` from the anus (both at 1.5 m, in
+/// proportion for other lengths) is replaced by a straight run along its first tangent, a
+/// circular arc of radius `ratio` times the largest lumen radius in the window, and a straight
+/// run along its last tangent, meeting the rest of the midline with the same position and
+/// tangent (C1: the curvature jumps there). The window's chord out of the plane of the two
+/// tangents (the sigmoid twists) is spread smoothly over the straight runs. The arc turns as
+/// much as the midline did between the window's ends, which must be at least
+/// [`MIN_TIGHT_TURN_DEG`] (otherwise the candidate is not kept); the window gets a little
+/// longer, and the whole midline is scaled back to its length. With `ratio < 1` the ring planes
+/// of the arc cross inside the lumen on the inner side of the bend.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TightBend {
+    pub at_mm: f32,
+    pub half_window_mm: f32,
+    pub ratio: f32,
+}
+
+/// A sigmoid loop that doubles back ([`ColonParams::sigmoid_loop`]): from the rectosigmoid
+/// junction the midline winds once around
+/// an axis towards the patient's left, radius `radius_mm[0]` (up, anterior, down past the
+/// rectum, posterior and up again: an alpha loop seen from the side), its second pass
+/// `pitch_mm` to the left of its first (midline to midline), on for another 30 degrees; then
+/// an exit bend of radius `radius_mm[1]` turns it 55 degrees to the left and one of 50 mm up
+/// into the descending colon. The loop keeps its shape whatever the seed (it moves as a whole
+/// with the waypoints around it; the rest of the colon varies as usual). Millimetres at 1.5 m,
+/// in proportion for other lengths; both radii must stay at least [`MIN_BEND_RATIO`] times the
+/// lumen's and the pitch must leave [`MIN_WALL_GAP_MM`] between the passes' walls (checked).
+/// An exit bend tighter than the loop is where the scripted colonoscopy pushes (the sigmoid's
+/// sharpest bend), so the scope lies through the whole loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SigmoidLoop {
+    pub radius_mm: [f32; 2],
+    pub pitch_mm: f32,
+}
+
+/// Smallest turning of a [`TightBend`]'s window, degrees.
+pub const MIN_TIGHT_TURN_DEG: f64 = 45.0;
+/// Smallest total turning of the midline over a [`SigmoidLoop`]'s revolution, degrees.
+pub const MIN_LOOP_TURN_DEG: f64 = 330.0;
+/// Largest wall-to-wall gap between a [`SigmoidLoop`]'s two passes, mm (at 1.5 m): nearer than
+/// this the loop passes near itself.
+pub const MAX_LOOP_PASS_GAP_MM: f64 = 30.0;
 
 /// A stretch of the colon whose lumen is at most `radius_mm` over `length_mm` of midline
 /// centred `at_mm` from the anus, easing back to the normal lumen over [`NARROWING_RAMP_MM`]
@@ -97,7 +159,19 @@ impl Narrowing {
 
 impl Default for ColonParams {
     fn default() -> Self {
-        Self { length_mm: 1500.0, ring_spacing: 1.2, spokes: 32, radius_mm: [20.0, 35.0], haustra_spacing_mm: 30.0, haustra_depth_mm: 4.0, jitter_mm: 10.0, seed: 0, narrowings: Vec::new() }
+        Self {
+            length_mm: 1500.0,
+            ring_spacing: 1.2,
+            spokes: 32,
+            radius_mm: [20.0, 35.0],
+            haustra_spacing_mm: 30.0,
+            haustra_depth_mm: 4.0,
+            jitter_mm: 10.0,
+            seed: 0,
+            narrowings: Vec::new(),
+            tight_bends: Vec::new(),
+            sigmoid_loop: None,
+        }
     }
 }
 
@@ -217,6 +291,39 @@ pub struct GeneratedColon {
     pub min_bend_ratio: f32,
     /// Smallest wall-to-wall gap between loops, mm (on the midline-and-radius envelope).
     pub min_wall_gap_mm: f32,
+    /// What each of [`ColonParams::tight_bends`] became, in order.
+    pub tight_bends: Vec<TightBendReport>,
+    /// What [`ColonParams::sigmoid_loop`] became.
+    pub sigmoid_loop: Option<LoopReport>,
+}
+
+/// A tight bend as generated (the generator's own measures, on its dense midline).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TightBendReport {
+    /// The window replaced, arc from the anus, mm.
+    pub window_mm: [f32; 2],
+    /// The arc's middle, mm from the anus.
+    pub at_mm: f32,
+    /// The arc's bend radius, mm.
+    pub radius_mm: f32,
+    /// Smallest bend radius over the largest lumen radius in the window (below 1: ring planes
+    /// cross inside the lumen).
+    pub ratio: f32,
+    /// How far the midline turns over the window, degrees.
+    pub turn_deg: f32,
+}
+
+/// A sigmoid loop as generated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopReport {
+    /// Where its one revolution starts and ends, arc from the anus, mm.
+    pub arc_mm: [f32; 2],
+    /// The midline's total turning over the revolution (the integral of its curvature), degrees.
+    pub turn_deg: f32,
+    /// Smallest wall-to-wall gap between its two passes (the midline within 40 mm of the
+    /// revolution's start against the midline within 40 mm of its end), mm, on the
+    /// midline-and-radius envelope.
+    pub pass_gap_mm: f32,
 }
 
 impl GeneratedColon {
@@ -360,28 +467,98 @@ struct Candidate {
     tan: Vec<V3d>,
     arc: Vec<f64>,
     regions: Vec<(f64, Region)>,
+    /// The arcs of a sigmoid loop's revolution.
+    loop_arc: Option<[f64; 2]>,
+}
+
+/// The waypoints a candidate starts from, and the roles of some of them in the jitter.
+struct Template {
+    way: Vec<V3d>,
+    regions: Vec<Option<Region>>,
+    /// The sigmoid loop's waypoints, scaled together by the seed.
+    sig: Vec<usize>,
+    /// Added to the template's indices of the transverse colon (the sag).
+    shift: usize,
+    /// First and last waypoint of a loop's revolution.
+    loop_way: Option<[usize; 2]>,
+    /// First and last waypoint that keep their shape under the seed's proportions.
+    rigid: Option<[usize; 2]>,
+}
+
+impl Template {
+    /// [`TEMPLATE`], or with its sigmoid (waypoints 5 to 18) replaced by `sl`'s loop.
+    fn new(sl: Option<&SigmoidLoop>) -> Self {
+        let v = |p: [f64; 3]| V3d::new(p[0], p[1], p[2]);
+        let Some(sl) = sl else {
+            return Self { way: TEMPLATE.iter().map(|(p, _)| v(*p)).collect(), regions: TEMPLATE.iter().map(|(_, r)| *r).collect(), sig: (6..=12).collect(), shift: 0, loop_way: None, rigid: None };
+        };
+        let (mut way, mut regions): (Vec<V3d>, Vec<Option<Region>>) = TEMPLATE[..=4].iter().map(|(p, r)| (v(*p), *r)).unzip();
+        // The revolution starts at the rectosigmoid junction (waypoint 4), heading up, and winds
+        // about an axis along x (a waypoint every 30 degrees), drifting `pitch` to the left.
+        let start = way[4];
+        let [r_loop, r_exit] = sl.radius_mm.map(|r| r as f64);
+        let pitch = sl.pitch_mm as f64;
+        let (yc, zc) = (start.y + r_loop, start.z);
+        let first = way.len() - 1;
+        let c = pitch / TAU;
+        let helix = |phi: f64| V3d::new(start.x + c * phi, yc - r_loop * phi.cos(), zc + r_loop * phi.sin());
+        for k in 1..=13 {
+            way.push(helix(k as f64 * PI / 6.0));
+            regions.push(None);
+        }
+        // Then a bend of radius `r_exit` turning the heading 65 degrees towards the left, and one
+        // of 50 mm turning it up (and a little posterior) into the descending colon (template
+        // waypoint 19 on); a waypoint every 13 degrees.
+        let phi = 13.0 * PI / 6.0;
+        let mut at = way[way.len() - 1];
+        let mut heading = V3d::new(c, r_loop * phi.sin(), r_loop * phi.cos()).normalize();
+        // A circular bend from `at` turning `heading` by `angle` towards `toward`.
+        fn bend(at: &mut V3d, heading: &mut V3d, toward: V3d, angle: f64, r: f64, way: &mut Vec<V3d>, regions: &mut Vec<Option<Region>>) {
+            let n = (toward - *heading * toward.dot(heading)).normalize();
+            let steps = (angle / 13f64.to_radians()).ceil().max(1.0) as usize;
+            for j in 1..=steps {
+                let psi = angle * j as f64 / steps as f64;
+                way.push(*at + (*heading * psi.sin() + n * (1.0 - psi.cos())) * r);
+                regions.push(None);
+            }
+            *at = way[way.len() - 1];
+            *heading = *heading * angle.cos() + n * angle.sin();
+        }
+        bend(&mut at, &mut heading, V3d::new(1.0, -0.7, 0.0), 55f64.to_radians(), r_exit, &mut way, &mut regions);
+        let up = V3d::new(-0.15, -0.25, 1.0).normalize();
+        let angle = heading.dot(&up).clamp(-1.0, 1.0).acos();
+        bend(&mut at, &mut heading, up, angle, 50.0, &mut way, &mut regions);
+        *regions.last_mut().expect("exit waypoints") = Some(Region::Descending);
+        let last = way.len() - 1;
+        let shift = way.len() - 19;
+        way.extend(TEMPLATE[19..].iter().map(|(p, _)| v(*p)));
+        regions.extend(TEMPLATE[19..].iter().map(|(_, r)| *r));
+        // No seeded scale of the loop: its radii and pitch are the parameters'.
+        Self { way, regions, sig: Vec::new(), shift, loop_way: Some([first, first + 12]), rigid: Some([first, last]) }
+    }
 }
 
 /// Builds a candidate midline (dense, scaled to `length`).
-fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
+fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>, template: &Template) -> Candidate {
     let scale0 = length / REFERENCE_MM;
-    let mut way: Vec<V3d> = TEMPLATE.iter().map(|(p, _)| V3d::new(p[0], p[1], p[2])).collect();
+    let mut way = template.way.clone();
     if let Some(rng) = rng {
         // Global variation: sigmoid loop size, transverse sag, body proportions.
-        let sig: Vec<usize> = (6..=12).collect();
-        let c = sig.iter().map(|&k| way[k]).sum::<V3d>() / sig.len() as f64;
+        let sig = &template.sig;
+        let c = sig.iter().map(|&k| way[k]).sum::<V3d>() / sig.len().max(1) as f64;
         let loop_scale = rng.range(0.9, 1.1);
-        for &k in &sig {
+        for &k in sig {
             way[k] = c + (way[k] - c) * loop_scale;
         }
         let sag = rng.range(-15.0, 15.0);
         for (k, w) in [(27usize, 0.3), (28, 0.6), (29, 0.9), (30, 1.0), (31, 0.9), (32, 0.6), (33, 0.3)] {
-            way[k].z += sag * w;
+            way[k + template.shift].z += sag * w;
         }
         let aniso = V3d::new(rng.range(0.95, 1.05), rng.range(0.95, 1.05), rng.range(0.95, 1.05));
         for w in way.iter_mut() {
             *w = w.component_mul(&aniso);
         }
+
         // A smooth random displacement field along the waypoints: Fourier modes with amplitude
         // falling as 1/m, so neighbouring waypoints move together and bends stay round.
         let m_count = way.len() as f64;
@@ -403,6 +580,13 @@ fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
             let ramp = (k as f64 / 3.0).min(1.0);
             *w += d * (jitter * ramp / rms);
         }
+        // A loop keeps its shape: it moves as a whole, by the mean of its waypoints' moves.
+        if let Some([a, b]) = template.rigid {
+            let moved = (a..=b).map(|k| way[k] - template.way[k]).sum::<V3d>() / (b - a + 1) as f64;
+            for (w, t) in way[a..=b].iter_mut().zip(&template.way[a..=b]) {
+                *w = t + moved;
+            }
+        }
     }
     for w in way.iter_mut() {
         *w *= scale0;
@@ -411,21 +595,39 @@ fn candidate(length: f64, jitter: f64, rng: Option<&mut Rng>) -> Candidate {
     let k = length / d.arc[d.arc.len() - 1];
     let pos = d.pos.iter().map(|p| p * k).collect();
     let arc = d.arc.iter().map(|a| a * k).collect();
-    let regions = TEMPLATE.iter().zip(&d.way_arc).filter_map(|((_, r), &a)| r.map(|r| (a * k, r))).collect();
-    Candidate { pos, tan: d.tan, arc, regions }
+    let regions = template.regions.iter().zip(&d.way_arc).filter_map(|(r, &a)| r.map(|r| (a * k, r))).collect();
+    let loop_arc = template.loop_way.map(|w| w.map(|i| d.way_arc[i] * k));
+    Candidate { pos, tan: d.tan, arc, regions, loop_arc }
 }
 
-/// Bend ratio and wall gap of a candidate, on samples every `step` mm.
-fn check(c: &Candidate, rm: &RadiusModel, step: f64) -> (f64, f64) {
+/// What [`check`] measures of a candidate.
+struct Checks {
+    /// Smallest bend ratio outside the tight bends' windows.
+    ratio: f64,
+    /// Smallest wall gap, pairs beside one tight bend left out.
+    gap: f64,
+    /// Smallest bend ratio in each tight bend's window.
+    tight: Vec<f64>,
+    /// A loop's turning (degrees) and the gap between its passes.
+    loop_turn_deg: f64,
+    loop_gap: f64,
+}
+
+/// Bend ratio and wall gap of a candidate, on samples every `step` mm, the bend check waived in
+/// the `windows` of its tight bends and the gap check between two samples both within `margin`
+/// of one window; with the measures of its tight bends and its loop.
+fn check(c: &Candidate, rm: &RadiusModel, step: f64, windows: &[[f64; 2]], margin: f64) -> Checks {
     let total = c.arc[c.arc.len() - 1];
     let n = (total / step).floor() as usize + 1;
     let s: Vec<f64> = (0..n).map(|i| i as f64 * step).collect();
     let p: Vec<V3d> = s.iter().map(|&x| at_arc(&c.pos, &c.arc, x)).collect();
     let r: Vec<f64> = s.iter().map(|&x| rm.max_radius(x)).collect();
+    // Which windows each sample is within `margin` of, as bits.
+    let near: Vec<u64> = s.iter().map(|&x| windows.iter().enumerate().filter(|(_, w)| x >= w[0] - margin && x <= w[1] + margin).fold(0, |m, (k, _)| m | 1 << k.min(63))).collect();
     let mut gap = f64::INFINITY;
     for i in 0..n {
         for j in i + 1..n {
-            if s[j] - s[i] <= (1.5 * (r[i] + r[j])).max(40.0) {
+            if s[j] - s[i] <= (1.5 * (r[i] + r[j])).max(40.0) || near[i] & near[j] != 0 {
                 continue;
             }
             gap = gap.min((p[i] - p[j]).norm() - r[i] - r[j]);
@@ -433,6 +635,7 @@ fn check(c: &Candidate, rm: &RadiusModel, step: f64) -> (f64, f64) {
     }
     // Bend radius from the dense tangents: |dt/ds| over a short window.
     let mut ratio = f64::INFINITY;
+    let mut tight = vec![f64::INFINITY; windows.len()];
     let h = 2.0;
     for i in 0..n {
         let (a, b) = (s[i] - h, s[i] + h);
@@ -443,16 +646,149 @@ fn check(c: &Candidate, rm: &RadiusModel, step: f64) -> (f64, f64) {
         let tb = at_arc(&c.tan, &c.arc, b).normalize();
         let kappa = 2.0 * (0.5 * (ta - tb).norm()).asin() / (b - a);
         if kappa > 0.0 {
-            ratio = ratio.min(1.0 / kappa / r[i]);
+            let q = 1.0 / kappa / r[i];
+            match windows.iter().position(|w| s[i] >= w[0] && s[i] <= w[1]) {
+                Some(w) => tight[w] = tight[w].min(q),
+                None => ratio = ratio.min(q),
+            }
         }
     }
-    (ratio, gap)
+    let (mut loop_turn_deg, mut loop_gap) = (0.0, f64::INFINITY);
+    if let Some([s0, s1]) = c.loop_arc {
+        let (i0, i1) = (c.arc.partition_point(|&a| a < s0), c.arc.partition_point(|&a| a <= s1));
+        loop_turn_deg = c.tan[i0..i1].windows(2).map(|w| w[0].normalize().dot(&w[1].normalize()).clamp(-1.0, 1.0).acos()).sum::<f64>().to_degrees();
+        let reach = 40.0 * rm.span / 15.0;
+        for i in (0..n).filter(|&i| (s[i] - s0).abs() <= reach) {
+            for j in (0..n).filter(|&j| (s[j] - s1).abs() <= reach) {
+                loop_gap = loop_gap.min((p[i] - p[j]).norm() - r[i] - r[j]);
+            }
+        }
+    }
+    Checks { ratio, gap, tight, loop_turn_deg, loop_gap }
+}
+
+/// A tight bend as built, before the candidate's checks.
+struct Tightened {
+    window: [f64; 2],
+    at: f64,
+    radius: f64,
+    turn_deg: f64,
+}
+
+/// Gathers each tight bend's turning into its arc (see [`TightBend`]), then scales the midline
+/// back to `length`; `None` if a window turns less than [`MIN_TIGHT_TURN_DEG`] or cannot hold
+/// its arc. `scale0` is the template's scale (`length / 1500 mm`).
+fn tighten(mut c: Candidate, bends: &[TightBend], rm: &RadiusModel, scale0: f64, length: f64) -> Option<(Candidate, Vec<Tightened>)> {
+    if bends.is_empty() {
+        return Some((c, Vec::new()));
+    }
+    // From the far end, so the arcs of the windows still to do stay where they were.
+    let mut order: Vec<usize> = (0..bends.len()).collect();
+    order.sort_by(|&i, &j| bends[j].at_mm.total_cmp(&bends[i].at_mm));
+    let mut done: Vec<(usize, Tightened)> = Vec::new();
+    for &bi in &order {
+        let tb = &bends[bi];
+        let total = c.arc[c.arc.len() - 1];
+        let (a, b) = ((tb.at_mm - tb.half_window_mm) as f64 * scale0, (tb.at_mm + tb.half_window_mm) as f64 * scale0);
+        if !(a > 0.0 && b < total && a < b) {
+            return None;
+        }
+        let (pa, pb) = (at_arc(&c.pos, &c.arc, a), at_arc(&c.pos, &c.arc, b));
+        let (ta, tbn) = (at_arc(&c.tan, &c.arc, a).normalize(), at_arc(&c.tan, &c.arc, b).normalize());
+        let cos = ta.dot(&tbn).clamp(-1.0, 1.0);
+        let theta = cos.acos();
+        if theta.to_degrees() < MIN_TIGHT_TURN_DEG {
+            return None;
+        }
+        let steps = ((b - a) / 0.5).ceil() as usize;
+        let biggest = (0..=steps).map(|k| rm.max_radius(a + (b - a) * k as f64 / steps as f64)).fold(0.0, f64::max);
+        let rho = tb.ratio as f64 * biggest;
+        // Straight along ta for l1, the arc, straight along tb for l2: the arc's chord is
+        // m (ta + tb); what is left of the window's chord out of the plane of ta, tb is e.
+        let m = rho * (0.5 * theta).tan();
+        let d = pb - pa - (ta + tbn) * m;
+        let det = 1.0 - cos * cos;
+        let (da, db) = (d.dot(&ta), d.dot(&tbn));
+        let l1 = (da - cos * db) / det;
+        let l2 = (db - cos * da) / det;
+        let e = d - ta * l1 - tbn * l2;
+        let least = 0.1 * (b - a);
+        if !(l1 >= least && l2 >= least && e.norm() <= 0.5 * l1.min(l2)) {
+            return None;
+        }
+        let nrm = (tbn - ta * cos).normalize();
+        let ds = c.arc[1] - c.arc[0];
+        let mut pos = Vec::new();
+        let mut tan = Vec::new();
+        // The out-of-plane rest: 0 to e/2 over the first run, e/2 along the arc, to e over the second.
+        let leg = |l: f64, from: V3d, t: V3d, w0: f64, pos: &mut Vec<V3d>, tan: &mut Vec<V3d>, last: bool| {
+            let k = (l / ds).ceil().max(1.0) as usize;
+            for j in 0..k + usize::from(last) {
+                let u = j as f64 / k as f64;
+                pos.push(from + t * (l * u) + e * (w0 + 0.5 * smoothstep(u)));
+                tan.push((t + e * (0.5 * 6.0 * u * (1.0 - u) / l)).normalize());
+            }
+        };
+        leg(l1, pa, ta, 0.0, &mut pos, &mut tan, false);
+        let p1 = pa + ta * l1;
+        let k = ((rho * theta) / ds).ceil().max(1.0) as usize;
+        for j in 0..k {
+            let phi = theta * j as f64 / k as f64;
+            pos.push(p1 + ta * (rho * phi.sin()) + nrm * (rho * (1.0 - phi.cos())) + e * 0.5);
+            tan.push(ta * phi.cos() + nrm * phi.sin());
+        }
+        let p2 = p1 + (ta + tbn) * m;
+        leg(l2, p2, tbn, 0.5, &mut pos, &mut tan, true);
+        let (ia, ib) = (c.arc.partition_point(|&s| s < a), c.arc.partition_point(|&s| s <= b));
+        let added = pos.len();
+        let mut p = c.pos[..ia].to_vec();
+        p.extend(pos);
+        p.extend_from_slice(&c.pos[ib..]);
+        let mut t = c.tan[..ia].to_vec();
+        t.extend(tan);
+        t.extend_from_slice(&c.tan[ib..]);
+        let arc = arc_lengths(&p);
+        // The window's new length, from the first old point after it.
+        let delta = match arc.get(ia + added) {
+            Some(&s) => s - c.arc[ib],
+            None => arc[arc.len() - 1] - c.arc[c.arc.len() - 1],
+        };
+        let new_len = b - a + delta;
+        let remap = |s: f64| {
+            if s <= a {
+                s
+            } else if s >= b {
+                s + delta
+            } else {
+                a + (s - a) * new_len / (b - a)
+            }
+        };
+        c.arc = arc;
+        c.pos = p;
+        c.tan = t;
+        for r in c.regions.iter_mut() {
+            r.0 = remap(r.0);
+        }
+        c.loop_arc = c.loop_arc.map(|w| w.map(remap));
+        for (_, t) in done.iter_mut() {
+            t.window = t.window.map(remap);
+            t.at = remap(t.at);
+        }
+        done.push((bi, Tightened { window: [a, a + new_len], at: a + l1 + 0.5 * rho * theta, radius: rho, turn_deg: theta.to_degrees() }));
+    }
+    let k = length / c.arc[c.arc.len() - 1];
+    c.pos.iter_mut().for_each(|p| *p *= k);
+    c.arc.iter_mut().for_each(|s| *s *= k);
+    c.regions.iter_mut().for_each(|r| r.0 *= k);
+    c.loop_arc = c.loop_arc.map(|w| w.map(|s| s * k));
+    done.sort_by_key(|(i, _)| *i);
+    Some((c, done.into_iter().map(|(_, t)| Tightened { window: t.window.map(|s| s * k), at: t.at * k, radius: t.radius * k, turn_deg: t.turn_deg }).collect()))
 }
 
 /// [`generate`], with the arc of each ring, the regions and the checks.
 ///
 /// # Panics
-/// As [`generate`].
+/// As [`generate`], and if the unperturbed template (the fallback) cannot hold a tight bend.
 pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
     let length = params.length_mm as f64;
     let spacing = params.ring_spacing as f64;
@@ -464,11 +800,13 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
     let [rmin, rmax] = params.radius_mm.map(|r| r as f64);
     assert!(rmin > 0.0 && rmin <= rmax && rmax.is_finite(), "radius_mm must satisfy 0 < min <= max, got {:?}", params.radius_mm);
     let shrink = (length / REFERENCE_MM).min(1.0);
+    let scale0 = length / REFERENCE_MM;
     let (lo, hi) = (rmin * shrink, rmax * shrink);
     let span = hi - lo;
     let fold = (params.haustra_depth_mm as f64 * shrink).clamp(0.0, 0.3 * span);
     let sector = 0.1 * span;
     let jitter = params.jitter_mm.max(0.0) as f64;
+    let template = Template::new(params.sigmoid_loop.as_ref());
 
     let make_rm = |regions: &[(f64, Region)]| RadiusModel {
         lo,
@@ -482,24 +820,30 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
     };
     let step = (2.0 * shrink).max(spacing.min(2.0));
     let min_gap = MIN_WALL_GAP_MM * shrink;
+    // The tight bends, and the checks of a candidate that has them.
+    let build = |c: Candidate| -> Option<(Candidate, RadiusModel, Vec<Tightened>, Checks)> {
+        let rm = make_rm(&c.regions);
+        let (c, tight) = tighten(c, &params.tight_bends, &rm, scale0, length)?;
+        let rm = make_rm(&c.regions);
+        let windows: Vec<[f64; 2]> = tight.iter().map(|t| t.window).collect();
+        let checks = check(&c, &rm, step, &windows, 40.0 * shrink);
+        Some((c, rm, tight, checks))
+    };
+    let passes = |k: &Checks| {
+        let looped = params.sigmoid_loop.is_none() || (k.loop_turn_deg >= MIN_LOOP_TURN_DEG && k.loop_gap >= min_gap && k.loop_gap <= MAX_LOOP_PASS_GAP_MM * shrink);
+        k.ratio >= MIN_BEND_RATIO && k.gap >= min_gap && looped
+    };
 
     let mut rng = Rng::new(params.seed, 0xC0_10_4E);
     let mut chosen = None;
     for attempt in 1..=MAX_ATTEMPTS {
-        let c = candidate(length, jitter, Some(&mut rng));
-        let rm = make_rm(&c.regions);
-        let (ratio, gap) = check(&c, &rm, step);
-        if ratio >= MIN_BEND_RATIO && gap >= min_gap {
-            chosen = Some((c, rm, attempt, ratio, gap));
+        if let Some(b) = build(candidate(length, jitter, Some(&mut rng), &template)).filter(|b| passes(&b.3)) {
+            chosen = Some((b, attempt));
             break;
         }
     }
-    let (c, rm, attempt, ratio, gap) = chosen.unwrap_or_else(|| {
-        let c = candidate(length, 0.0, None);
-        let rm = make_rm(&c.regions);
-        let (ratio, gap) = check(&c, &rm, step);
-        (c, rm, 0, ratio, gap)
-    });
+    let ((c, rm, tight, checks), attempt) = chosen.unwrap_or_else(|| (build(candidate(length, 0.0, None, &template)).expect("the unperturbed template holds the tight bends"), 0));
+    let (ratio, gap) = (checks.ratio, checks.gap);
 
     // Rings every `spacing` along the arc, with a rotation-minimising frame.
     let arc: Vec<f64> = (0..rings).map(|i| i as f64 * spacing).collect();
@@ -538,6 +882,12 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
         attempt,
         min_bend_ratio: ratio as f32,
         min_wall_gap_mm: gap as f32,
+        tight_bends: tight
+            .iter()
+            .zip(&checks.tight)
+            .map(|(t, &q)| TightBendReport { window_mm: t.window.map(|s| s as f32), at_mm: t.at as f32, radius_mm: t.radius as f32, ratio: q as f32, turn_deg: t.turn_deg as f32 })
+            .collect(),
+        sigmoid_loop: c.loop_arc.map(|w| LoopReport { arc_mm: w.map(|s| s as f32), turn_deg: checks.loop_turn_deg as f32, pass_gap_mm: checks.loop_gap as f32 }),
     }
 }
 
@@ -548,14 +898,31 @@ mod tests {
     #[test]
     fn template_passes_its_own_checks() {
         for length in [500.0, 1500.0, 3000.0] {
-            let c = candidate(length, 0.0, None);
+            let c = candidate(length, 0.0, None, &Template::new(None));
             let shrink = (length / REFERENCE_MM).min(1.0);
             let span = 15.0 * shrink;
             let rm = RadiusModel { lo: 20.0 * shrink, span, fold: (4.0 * shrink).min(0.3 * span), sector: 0.1 * span, regions: c.regions.clone(), haustra_spacing: 30.0, seed: 0, taenia_phase: 0.0 };
-            let (ratio, gap) = check(&c, &rm, 2.0 * shrink);
+            let Checks { ratio, gap, .. } = check(&c, &rm, 2.0 * shrink, &[], 0.0);
             eprintln!("template at {length} mm: bend ratio {ratio:.2}, wall gap {gap:.1} mm");
             assert!(ratio >= MIN_BEND_RATIO, "bend ratio {ratio}");
             assert!(gap >= MIN_WALL_GAP_MM * shrink, "wall gap {gap}");
         }
+    }
+
+    #[test]
+    fn the_variants_templates_pass_their_own_checks() {
+        // The fallback after MAX_ATTEMPTS: the unperturbed template must hold the variants.
+        let rm_of = |c: &Candidate| RadiusModel { lo: 20.0, span: 15.0, fold: 4.0, sector: 1.5, regions: c.regions.clone(), haustra_spacing: 30.0, seed: 0, taenia_phase: 0.0 };
+        let c = candidate(1500.0, 0.0, None, &Template::new(Some(&crate::SIGMOID_LOOP)));
+        let k = check(&c, &rm_of(&c), 2.0, &[], 0.0);
+        eprintln!("loop template: bend ratio {:.2}, wall gap {:.1} mm, turning {:.1} degrees, passes {:.1} mm apart", k.ratio, k.gap, k.loop_turn_deg, k.loop_gap);
+        assert!(k.ratio >= MIN_BEND_RATIO && k.gap >= MIN_WALL_GAP_MM && k.loop_turn_deg >= MIN_LOOP_TURN_DEG && (MIN_WALL_GAP_MM..=MAX_LOOP_PASS_GAP_MM).contains(&k.loop_gap));
+        let c = candidate(1500.0, 0.0, None, &Template::new(None));
+        let rm = rm_of(&c);
+        let (c, tight) = tighten(c, &crate::TIGHT_BENDS, &rm, 1.0, 1500.0).expect("the template holds the tight bends");
+        let windows: Vec<[f64; 2]> = tight.iter().map(|t| t.window).collect();
+        let k = check(&c, &rm_of(&c), 2.0, &windows, 40.0);
+        eprintln!("tight-bend template: bend ratio {:.2} outside, {:?} inside; wall gap {:.1} mm", k.ratio, k.tight, k.gap);
+        assert!(k.ratio >= MIN_BEND_RATIO && k.gap >= MIN_WALL_GAP_MM && k.tight.iter().all(|&q| q < 0.8));
     }
 }

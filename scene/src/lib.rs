@@ -53,6 +53,14 @@ pub enum ColonKind {
     Narrow,
     /// The generated colon with a collapsed segment in the sigmoid ([`COLLAPSED`]).
     Collapsed,
+    /// The generated colon with two bends tighter than the lumen ([`TIGHT_BENDS`]): at the
+    /// rectosigmoid junction and at the top of the sigmoid, both in the scripted scope's way;
+    /// their ring planes cross inside the lumen.
+    #[serde(rename = "tight-bend")]
+    TightBend,
+    /// The generated colon with a sigmoid that loops once around and passes beside itself
+    /// ([`SIGMOID_LOOP`]), the scripted scope lying through the whole loop.
+    Loop,
     /// The Edinburgh Gut Cell Atlas colon EdinGCA_3D_00090 ([`gca::load`]).
     Gca,
 }
@@ -66,29 +74,46 @@ pub const NARROW: [colon::Narrowing; 2] = [colon::Narrowing { at_mm: 30.0, radiu
 /// through it all the colonoscopy long).
 pub const COLLAPSED: [colon::Narrowing; 1] = [colon::Narrowing { at_mm: 150.0, radius_mm: 3.0, length_mm: 60.0 }];
 
+/// The bends of [`ColonKind::TightBend`]: the midline's turning from 100 to 240 mm from the
+/// anus (the rectosigmoid junction, about 60 degrees) and from 250 to 350 mm (the top of the
+/// sigmoid, about 100 degrees) gathered into arcs of 0.6 times the largest lumen radius there
+/// (about 18 and 16 mm, against 30 and 27), both between the anus and where the scripted
+/// colonoscopy's tip starts (about 370 mm in).
+pub const TIGHT_BENDS: [colon::TightBend; 2] = [colon::TightBend { at_mm: 170.0, half_window_mm: 70.0, ratio: 0.6 }, colon::TightBend { at_mm: 300.0, half_window_mm: 50.0, ratio: 0.6 }];
+
+/// The loop of [`ColonKind::Loop`]: radius 50 mm (1.85 times the sigmoid's largest lumen
+/// radius, 27 mm), the second pass 80 mm to the left of the first (midline to midline: about
+/// 10 mm between the walls where they come nearest), and an exit bend of 44 mm, the sigmoid's
+/// sharpest, where the scripted colonoscopy pushes: the scope lies through the whole loop.
+pub const SIGMOID_LOOP: colon::SigmoidLoop = colon::SigmoidLoop { radius_mm: [50.0, 44.0], pitch_mm: 80.0 };
+
 impl ColonKind {
     /// Every kind, in the order reports list them.
-    pub const ALL: [ColonKind; 4] = [ColonKind::Generated, ColonKind::Narrow, ColonKind::Collapsed, ColonKind::Gca];
+    pub const ALL: [ColonKind; 6] = [ColonKind::Generated, ColonKind::Narrow, ColonKind::Collapsed, ColonKind::TightBend, ColonKind::Loop, ColonKind::Gca];
 
-    /// `generated`, `narrow`, `collapsed` or `gca`.
+    /// `generated`, `narrow`, `collapsed`, `tight-bend`, `loop` or `gca`.
     pub fn name(self) -> &'static str {
         match self {
             ColonKind::Generated => "generated",
             ColonKind::Narrow => "narrow",
             ColonKind::Collapsed => "collapsed",
+            ColonKind::TightBend => "tight-bend",
+            ColonKind::Loop => "loop",
             ColonKind::Gca => "gca",
         }
     }
 
     /// The generator's parameters of a generated kind with `seed` (`None` for the GCA colon).
     pub fn generated(self, seed: u64) -> Option<ColonParams> {
-        let narrowings = match self {
-            ColonKind::Generated => vec![],
-            ColonKind::Narrow => NARROW.to_vec(),
-            ColonKind::Collapsed => COLLAPSED.to_vec(),
+        let base = ColonParams::seeded(seed);
+        Some(match self {
+            ColonKind::Generated => base,
+            ColonKind::Narrow => ColonParams { narrowings: NARROW.to_vec(), ..base },
+            ColonKind::Collapsed => ColonParams { narrowings: COLLAPSED.to_vec(), ..base },
+            ColonKind::TightBend => ColonParams { tight_bends: TIGHT_BENDS.to_vec(), ..base },
+            ColonKind::Loop => ColonParams { sigmoid_loop: Some(SIGMOID_LOOP), ..base },
             ColonKind::Gca => return None,
-        };
-        Some(ColonParams { narrowings, ..ColonParams::seeded(seed) })
+        })
     }
 }
 
@@ -98,9 +123,9 @@ impl std::fmt::Display for ColonKind {
     }
 }
 
-/// A colon name that is neither `generated` nor `gca`.
+/// A colon name that is none of [`ColonKind::ALL`]'s.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown colon {0:?}: use generated, narrow, collapsed or gca")]
+#[error("unknown colon {0:?}: use generated, narrow, collapsed, tight-bend, loop or gca")]
 pub struct UnknownColon(pub String);
 
 impl std::str::FromStr for ColonKind {
