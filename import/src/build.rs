@@ -166,6 +166,13 @@ impl ImportReport {
         self.rays - self.kept
     }
 
+    /// What a model file stores of this import ([`lumen_detect::model::ImportInfo`]): the
+    /// fidelity and this report's text.
+    pub fn info(&self) -> lumen_detect::model::ImportInfo {
+        let w = &self.fidelity;
+        lumen_detect::model::ImportInfo { fidelity_mm: [w.p50, w.p99, w.max], kept_p99_mm: w.kept_p99, samples: w.samples as u64, report: self.to_string() }
+    }
+
     /// Repaired fraction of all rays.
     pub fn repaired_fraction(&self) -> f64 {
         if self.rays == 0 {

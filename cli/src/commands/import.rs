@@ -7,7 +7,7 @@
 use crate::commands::{CliError, CliResult};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lumen_detect::model::{save_native, to_text};
+use lumen_detect::model::{save_native_with, to_text};
 use lumen_detect::Body;
 use lumen_import::{assess, build_tube, load_centerline, load_mesh, ImportError, ImportParams, Thresholds, Unit};
 use std::path::PathBuf;
@@ -58,7 +58,7 @@ pub struct ImportArgs {
     #[arg(long, default_value_t = 1.0)]
     pub point_smoothing: f32,
     /// The model to write: the method's text format when the name ends in `.txt`, else Lumen's
-    /// native format.
+    /// native format (which also keeps the import's fidelity, for `lumen bench detect --model`).
     #[arg(short, long)]
     pub output: PathBuf,
 }
@@ -96,9 +96,11 @@ pub fn run(a: ImportArgs) -> CliResult {
         return Err(CliError::ImportRefused { mesh: a.mesh.clone(), problems: problems.len() });
     }
     let text = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"));
-    let bytes = if text { to_text(&tube).into_bytes() } else { save_native(&Body::Tube(tube)) };
+    // The native format keeps the import's fidelity beside the tube (`lumen bench detect
+    // --model` reports it); the text format holds the tube alone.
+    let bytes = if text { to_text(&tube).into_bytes() } else { save_native_with(&Body::Tube(tube), Some(&report.info())) };
     std::fs::write(&a.output, bytes).map_err(|source| CliError::Write { path: a.output.clone(), source })?;
-    println!("wrote {} ({})", a.output.display(), if text { "text format" } else { "native format" });
+    println!("wrote {} ({})", a.output.display(), if text { "text format: the tube alone, without the import's fidelity" } else { "native format, with the import's fidelity" });
     Ok(())
 }
 

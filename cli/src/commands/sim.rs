@@ -63,11 +63,9 @@ impl RunArgs {
     pub fn colon(&self, seed: u64) -> CliResult<lumen_detect::Tube> {
         if let Some(path) = &self.model {
             let bytes = std::fs::read(path).map_err(|source| CliError::FlagPath { flag: "--model", path: path.clone(), source })?;
-            let text = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"));
-            let body = if text { lumen_detect::model::parse_text(&String::from_utf8_lossy(&bytes)).map(lumen_detect::Body::Tube) } else { lumen_detect::model::load_native(&bytes) };
-            return match body {
-                Ok(lumen_detect::Body::Tube(t)) => Ok(t),
-                Ok(lumen_detect::Body::Rod(_)) => Err(CliError::Model { path: path.clone(), message: "holds a rod, not a colon (a tube)".into() }),
+            return match lumen_detect::model::parse_model(&bytes, lumen_detect::model::is_text_path(path)) {
+                Ok((lumen_detect::Body::Tube(t), _)) => Ok(t),
+                Ok((lumen_detect::Body::Rod(_), _)) => Err(CliError::Model { path: path.clone(), message: "holds a rod, not a colon (a tube)".into() }),
                 Err(e) => Err(CliError::Model { path: path.clone(), message: e.to_string() }),
             };
         }

@@ -7,7 +7,7 @@
 mod native;
 mod text;
 
-pub use native::{load_native, save_native};
+pub use native::{load_native, load_native_with, save_native, save_native_with};
 pub use text::{parse_text, to_text};
 
 use crate::V3;
@@ -52,6 +52,39 @@ pub struct Rod {
 pub enum Body {
     Tube(Tube),
     Rod(Rod),
+}
+
+/// What the import that wrote a model measured, stored beside its body in the native format
+/// (`lumen import` writes it), so that whoever runs the model can tell how far its wall lies from
+/// the surface it came from.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ImportInfo {
+    /// The wall (before inflation) to the source surface, in mm: p50, p99, max.
+    pub fidelity_mm: [f64; 3],
+    /// The p99 over the wall points drawn between kept spokes only (no repaired ray among
+    /// those it is drawn from), mm.
+    pub kept_p99_mm: f64,
+    /// Wall points measured.
+    pub samples: u64,
+    /// The import's report, as `lumen import` printed it (rays kept and repaired, radii,
+    /// fidelity).
+    pub report: String,
+}
+
+/// A model file's contents: `text` for the method's text format (a tube; no [`ImportInfo`]),
+/// else the native format. Every reader of model files (`lumen sim --model`, `lumen bench
+/// detect --model`) goes through here; the caller names the file in its errors.
+pub fn parse_model(bytes: &[u8], text: bool) -> Result<(Body, Option<ImportInfo>), ModelError> {
+    if text {
+        parse_text(&String::from_utf8_lossy(bytes)).map(|t| (Body::Tube(t), None))
+    } else {
+        load_native_with(bytes)
+    }
+}
+
+/// Whether `path` names a model in the method's text format (it ends in `.txt`).
+pub fn is_text_path(path: &std::path::Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"))
 }
 
 fn check_counts(points: usize, spokes: Option<usize>) -> Result<(), ModelError> {
