@@ -6,15 +6,20 @@ use crate::{Error, MethodKind, Options, ParryShape, Report};
 use clap::Args;
 use std::path::PathBuf;
 
-/// `lumen bench detect [--quick] [--scene gca|generated|all] [--out DIR] [--data PATH] [more]`.
+/// `lumen bench detect [--quick] [--scene gca|generated|all] [--model FILE] [--out DIR] [--data PATH] [more]`.
 #[derive(Debug, Clone, Args)]
 pub struct DetectArgs {
     /// The reduced sweep (under a minute on 2 cores): B = 32, x in {1, 4, 16}, 48 frames.
     #[arg(long)]
     pub quick: bool,
-    /// Scenes: gca, generated or all.
-    #[arg(long, default_value = "all")]
-    pub scene: String,
+    /// Scenes: gca, generated or all (default: all, or none beside --model).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// A colon model written by `lumen import` (native, or the text format when it ends in
+    /// `.txt`), run as the scene `model` at its own rings and spokes; the report gives the import
+    /// fidelity it stores beside the detection errors. Alone unless --scene is given too.
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
     /// Where report.md, report.json and speed_vs_error.svg go.
     #[arg(long, default_value = "bench-out")]
     pub out: PathBuf,
@@ -82,7 +87,13 @@ fn parse_method(s: &str) -> Result<MethodKind, Error> {
 impl DetectArgs {
     /// The sweep these flags ask for.
     pub fn options(&self) -> Result<Options, Error> {
-        let mut o = Options::from_flags(self.quick, Some(&self.scene), self.data.clone())?;
+        let mut o = Options::from_flags(self.quick, self.scene.as_deref(), self.data.clone())?;
+        if let Some(m) = &self.model {
+            if self.scene.is_none() {
+                o.scenes.clear();
+            }
+            o.model = Some(m.clone());
+        }
         let set = |field: &mut usize, v: Option<usize>| {
             if let Some(v) = v {
                 *field = v;
@@ -129,9 +140,10 @@ impl DetectArgs {
         }
         let report = crate::run(&self.options()?, !self.no_progress)?;
         report.write(&self.out)?;
-        let (x, b) = (report.default_precision, report.default_spokes);
-        for scene in ["generated", "gca"] {
-            for r in report.runs_at(scene, b, x) {
+        let x = report.default_precision;
+        for scene in report.scene_names() {
+            let b = report.summary_spokes(&scene);
+            for r in report.runs_at(&scene, b, x) {
                 eprintln!(
                     "{scene:9} B{b} x{x} {:7}: median {:9.1} us  p99 {:9.1} us  missed {:3}  false {:3}  depth p99 {:>8} mm  normal p99 {:>7} deg  escapes {}/{}",
                     r.method,
@@ -144,6 +156,11 @@ impl DetectArgs {
                     r.metrics.escaped_detected,
                     r.metrics.escaped_total
                 );
+            }
+            // A bad import scores well against its own tube: its distance to the source surface
+            // beside the detection errors says so.
+            if let Some(note) = report.fidelity_note(&scene) {
+                eprintln!("{scene:9} B{b} import: {note}");
             }
         }
         eprintln!("wrote {}/report.md, report.json, speed_vs_error.svg", self.out.display());
@@ -178,6 +195,12 @@ mod tests {
         assert_eq!(o.spokes, Options::quick().spokes);
         let full = opts(&[]).unwrap();
         assert_eq!(full.precisions, Options::full().precisions);
+        assert_eq!((full.scenes.len(), full.model), (2, None));
+        // --model alone, or beside the scenes --scene names.
+        let m = opts(&["--quick", "--model", "m.lumen"]).unwrap();
+        assert!(m.scenes.is_empty() && m.model == Some(PathBuf::from("m.lumen")));
+        let m = opts(&["--model", "m.lumen", "--scene", "gca"]).unwrap();
+        assert!(m.scenes == vec![crate::ColonKind::Gca] && m.model.is_some());
     }
 
     #[test]

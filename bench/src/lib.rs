@@ -12,8 +12,10 @@
 //!
 //! Scenes ([`scenes`]): `generated` (the seeded colon of `lumen-scene`) and `gca` (the real
 //! colon, imported at 1 ring per mm, inflated x2; skipped with a message when its files are
-//! absent), each at spokes `B` in {16, 32, 64} (the colon rebuilt with that many spokes), with
-//! the kinematic insertion's frames (1 mm per frame, wall deformed, seeded escapes).
+//! absent), each at spokes `B` in {16, 32, 64} (the colon rebuilt with that many spokes), and
+//! `model`, a model file written by `lumen import` ([`Options::model`], run at its own rings and
+//! spokes, with the import's fidelity it stores), with the kinematic insertion's frames (1 mm
+//! per frame, wall deformed, seeded escapes).
 //! Precision `x` in {1, 2, 4, 8, 16}. Speed and ratios: [`sweep`]; accuracy against the dense
 //! reference: [`metrics`]; output: [`report`].
 //!
@@ -75,6 +77,15 @@ pub enum Error {
     /// The real colon's tube could not be built.
     #[error("scene: gca import: {0}")]
     GcaImport(#[source] lumen_import::ImportError),
+    /// The model scene was asked for but no model loaded.
+    #[error("scene: the model is not loaded")]
+    ModelNotLoaded,
+    /// `--model`'s file cannot be read.
+    #[error("--model {}: {source}", path.display())]
+    ModelRead { path: PathBuf, source: std::io::Error },
+    /// `--model`'s file is not a colon model.
+    #[error("--model {}: {message}", path.display())]
+    Model { path: PathBuf, message: String },
     /// A frame of the insertion is not a valid state of its scene.
     #[error("scene: {scene} frame {frame}: {source}")]
     Frame { scene: &'static str, frame: usize, source: lumen_detect::proto::InputError },
@@ -164,6 +175,7 @@ impl MethodKind {
 /// | `--quick` | start from [`Options::quick`] instead of [`Options::full`] |
 /// | `--scene gca\|generated\|all` (default `all`) | [`Options::scenes`] ([`Options::set_scene`]) |
 /// | `--data PATH` (folder with the GCA colon's `colon_20k_mm.obj` and `centerline_mm.csv`) | [`Options::data`] |
+/// | `--model FILE` (a model written by `lumen import`; alone unless `--scene` is given too) | [`Options::model`] |
 /// | `--out DIR` (default `bench-out`) | not here: `run(...)?.write(DIR)` |
 ///
 /// Every other field has a sensible value in both presets; the standalone binary
@@ -176,6 +188,11 @@ pub struct Options {
     pub scenes: Vec<ColonKind>,
     /// Folder of the GCA colon; `None`: `../shared/data/colon-gca00090` next to the workspace.
     pub data: Option<PathBuf>,
+    /// A model file (what `lumen import` writes, or the text format), run after
+    /// [`Options::scenes`] as the scene `model` at its own rings and spokes ([`Options::spokes`]
+    /// do not apply; the rings-doubled check runs `longer` only, as a model cannot be rebuilt
+    /// denser). A file that cannot be read is an error naming it, not a skipped scene.
+    pub model: Option<PathBuf>,
     /// Precisions `x`.
     pub precisions: Vec<u32>,
     /// Spokes `B` (each rebuilds the colon).
@@ -238,6 +255,7 @@ impl Options {
             quick: false,
             scenes: vec![ColonKind::Generated, ColonKind::Gca],
             data: None,
+            model: None,
             precisions: vec![1, 2, 4, 8, 16],
             spokes: vec![16, 32, 64],
             methods: MethodKind::ALL.to_vec(),
@@ -304,7 +322,7 @@ impl Options {
     }
 
     fn check(&self) -> Result<(), Error> {
-        if self.scenes.is_empty() || self.methods.is_empty() || self.precisions.is_empty() || self.spokes.is_empty() {
+        if (self.scenes.is_empty() && self.model.is_none()) || self.methods.is_empty() || self.precisions.is_empty() || self.spokes.is_empty() {
             return Err(Error::EmptySweep);
         }
         if let Some(&x) = self.precisions.iter().find(|&&x| !(1..=64).contains(&x) || !metrics::DENSE_PER_SEGMENT.is_multiple_of(x as usize)) {
@@ -346,6 +364,7 @@ fn notes(opts: &Options) -> Vec<String> {
 pub fn run(opts: &Options, progress: bool) -> Result<Report, Error> {
     opts.check()?;
     let t0 = Instant::now();
+    let model = opts.model.as_deref().map(scenes::Model::read).transpose()?;
     let mut skipped = Vec::new();
     let mut gca = None;
     let mut kinds = Vec::new();
@@ -361,14 +380,18 @@ pub fn run(opts: &Options, progress: bool) -> Result<Report, Error> {
                 }
             }
         }
-        kinds.push(k);
+        kinds.push(scenes::SceneKind::Colon(k));
+    }
+    if model.is_some() {
+        kinds.push(scenes::SceneKind::Model);
     }
     if kinds.is_empty() {
         return Err(Error::NoScenes(skipped));
     }
     let per_b = 1 + opts.precisions.len() * opts.methods.len() * opts.repeats.max(1);
     let doubled = usize::from(opts.rings_doubled && opts.spokes.contains(&opts.doubled_spokes) && opts.methods.contains(&MethodKind::Default));
-    let total = kinds.len() * (opts.spokes.len() * per_b + doubled);
+    let doubled_model = usize::from(opts.rings_doubled && opts.methods.contains(&MethodKind::Default));
+    let total: usize = kinds.iter().map(|k| if *k == scenes::SceneKind::Model { per_b + doubled_model } else { opts.spokes.len() * per_b + doubled }).sum();
     let pb = if progress { ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr()) } else { ProgressBar::hidden() };
     pb.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}").expect("template").progress_chars("=> "));
     let mut report = Report {
@@ -384,11 +407,11 @@ pub fn run(opts: &Options, progress: bool) -> Result<Report, Error> {
         ..Report::default()
     };
     for k in kinds {
-        let r = sweep::scene(k, opts, gca.as_ref(), &pb)?;
+        let r = sweep::scene(k, opts, gca.as_ref(), model.as_ref(), &pb)?;
         report.scenes.extend(r.infos);
         report.runs.extend(r.runs);
         report.rings_doubled.extend(r.doubled);
-        if k == ColonKind::Gca {
+        if k == scenes::SceneKind::Colon(ColonKind::Gca) {
             report.attribution.push(lumen_scene::gca::attribution().to_owned());
         }
     }

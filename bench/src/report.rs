@@ -69,6 +69,10 @@ pub struct SceneInfo {
     /// The imported wall (before inflation) against the source surface: p50, p99, max (mm).
     /// An import that lost the wall cannot score well against its own tube unnoticed.
     pub import_fidelity_mm: Option<[f64; 3]>,
+    /// The same p99 over the wall points drawn between kept spokes only (mm).
+    pub import_kept_p99_mm: Option<f64>,
+    /// The model file of the `model` scene.
+    pub model: Option<String>,
     pub attribution: Option<String>,
 }
 
@@ -214,7 +218,29 @@ impl Report {
         self.runs.iter().find(|r| r.scene == scene && r.method == method && r.spokes == b && r.x == x)
     }
 
-    fn scene_names(&self) -> Vec<String> {
+    /// The spoke count a scene is summarised at: the report's default, or a model's own when it
+    /// was run at another.
+    pub fn summary_spokes(&self, scene: &str) -> usize {
+        let b = self.default_spokes;
+        if self.runs.iter().any(|r| r.scene == scene && r.spokes == b) {
+            return b;
+        }
+        self.runs.iter().find(|r| r.scene == scene).map_or(b, |r| r.spokes)
+    }
+
+    /// What a scene's import measured, for the summaries: `wall to surface p50 / p99 / max`, or
+    /// that a model file does not store it; `None` for a generated colon.
+    pub fn fidelity_note(&self, scene: &str) -> Option<String> {
+        let i = self.scenes.iter().find(|i| i.scene == scene)?;
+        match i.import_fidelity_mm {
+            Some([a, b, c]) => Some(format!("wall to surface p50 / p99 / max {a:.3} / {b:.3} / {c:.2} mm")),
+            None if i.model.is_some() => Some("wall to surface not stored in the model file".into()),
+            None => None,
+        }
+    }
+
+    /// The scenes run, in order.
+    pub fn scene_names(&self) -> Vec<String> {
         let mut v: Vec<String> = Vec::new();
         for r in &self.runs {
             if !v.contains(&r.scene) {
@@ -261,14 +287,17 @@ impl Report {
         let _ = writeln!(s, "# lumen bench detect{}\n", if self.quick { " (quick)" } else { "" });
         let _ = writeln!(s, "Revision `{}`; {} ({} cores usable, single thread used); {:.0} s in all.\n", self.git_revision, self.machine.cpu, self.machine.cores, self.wall_s);
         let (x, b) = (self.default_precision, self.default_spokes);
-        let _ = writeln!(s, "## At the default precision (x = {x}, B = {b})\n");
+        let _ = writeln!(s, "## At the default precision (x = {x}, B = {b}; a model at its own B)\n");
         s.push_str(Self::table_header());
         for scene in self.scene_names() {
-            for r in self.runs_at(&scene, b, x) {
+            for r in self.runs_at(&scene, self.summary_spokes(&scene), x) {
                 s.push_str(&Self::table_row(r));
             }
         }
         s.push('\n');
+        for i in self.scenes.iter().filter(|i| i.model.is_some()) {
+            let _ = writeln!(s, "`{}` is the model file `{}`: {}.\n", i.scene, i.model.as_deref().unwrap_or(""), self.fidelity_note(&i.scene).unwrap_or_default());
+        }
         s.push_str(&self.targets());
         if !self.rings_doubled.is_empty() {
             s.push_str("## Rings doubled (same endoscope)\n\n`denser`: twice the rings at half the spacing (same insertion and seed); `longer`: the same frames with the colon extended past its last ring by as many rings again (the very same endoscope and contacts). Passes alternated in the same run.\n\n| scene | how | method | x | B | rings | median us | p99 us | rings doubled | median us | p99 us | ratio of medians | per-frame ratio (median) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -329,12 +358,18 @@ impl Report {
         for i in self.scenes.iter().filter(|i| i.import_report.is_some()) {
             let _ = writeln!(s, "Import, {} B = {}: {}\n", i.scene, i.spokes, i.import_report.as_deref().unwrap_or(""));
         }
-        let imported: Vec<&SceneInfo> = self.scenes.iter().filter(|i| i.import_fidelity_mm.is_some()).collect();
+        let imported: Vec<&SceneInfo> = self.scenes.iter().filter(|i| i.import_fidelity_mm.is_some() || i.model.is_some()).collect();
         if !imported.is_empty() {
-            s.push_str("## Import fidelity\n\nThe detection errors are judged against the imported tube's own wall; this is how far that wall (before inflation) lies from the source surface, so a bad import cannot look good.\n\n| scene | B | wall to surface p50 / p99 / max mm |\n|---|---|---|\n");
+            s.push_str("## Import fidelity\n\nThe detection errors are judged against the imported tube's own wall; this is how far that wall (before inflation) lies from the source surface, so a bad import cannot look good.\n\n| scene | B | wall to surface p50 / p99 / max mm | p99 between kept spokes only mm |\n|---|---|---|---|\n");
             for i in imported {
-                let [a, b, c] = i.import_fidelity_mm.unwrap_or_default();
-                let _ = writeln!(s, "| {} | {} | {a:.3} / {b:.3} / {c:.2} |", i.scene, i.spokes);
+                match i.import_fidelity_mm {
+                    Some([a, b, c]) => {
+                        let _ = writeln!(s, "| {} | {} | {a:.3} / {b:.3} / {c:.2} | {} |", i.scene, i.spokes, f(i.import_kept_p99_mm, 3));
+                    }
+                    None => {
+                        let _ = writeln!(s, "| {} | {} | not stored in the model file (not written by `lumen import`, or the text format) | - |", i.scene, i.spokes);
+                    }
+                }
             }
             s.push('\n');
         }
@@ -394,11 +429,11 @@ impl Report {
     /// on every scene.
     pub fn targets(&self) -> String {
         let (x, b) = (self.default_precision, self.default_spokes);
-        let scenes: Vec<String> = self.scene_names().into_iter().filter(|sc| self.run(sc, "default", b, x).is_some()).collect();
+        let scenes: Vec<String> = self.scene_names().into_iter().filter(|sc| self.run(sc, "default", self.summary_spokes(sc), x).is_some()).collect();
         if scenes.is_empty() {
             return String::new();
         }
-        let mut s = format!("## Against the issue's targets (x = {x}, B = {b}; the issue states them for `gca`)\n\n| target |");
+        let mut s = format!("## Against the issue's targets (x = {x}, B = {b}, a model at its own; the issue states them for `gca`)\n\n| target |");
         for sc in &scenes {
             let _ = write!(s, " {sc} |");
         }
@@ -415,13 +450,13 @@ impl Report {
             s.push('\n');
         };
         row("default: median <= 20 us per frame", &|sc| {
-            let d = self.run(sc, "default", b, x).unwrap();
+            let d = self.run(sc, "default", self.summary_spokes(sc), x).unwrap();
             format!("{:.1} us, {}", d.median_us, mark(d.median_us <= 20.0))
         });
         for (other, want) in [("thesis", 10.0), ("parry", 50.0)] {
             row(&format!(">= {want:.0}x faster than {other}, at equal or lower p99 depth error"), &|sc| {
-                let d = self.run(sc, "default", b, x).unwrap();
-                let o = self.run(sc, other, b, x);
+                let d = self.run(sc, "default", self.summary_spokes(sc), x).unwrap();
+                let o = self.run(sc, other, self.summary_spokes(sc), x);
                 let speed = if other == "thesis" { d.speedup_vs_thesis } else { d.speedup_vs_parry };
                 match (speed, p99(Some(d)), p99(o)) {
                     (Some(v), Some(ed), Some(eo)) => format!("{v:.1}x, p99 {ed:.3} vs {eo:.3} mm, {}", mark(v >= want && ed <= eo)),
@@ -431,30 +466,31 @@ impl Report {
             });
         }
         row("zero missed contacts", &|sc| {
-            let d = self.run(sc, "default", b, x).unwrap();
+            let d = self.run(sc, "default", self.summary_spokes(sc), x).unwrap();
             format!("{} ({} dense points), {}", d.metrics.missed, d.metrics.missed_dense, mark(d.metrics.missed == 0))
         });
         row("p99 depth error <= 0.05 mm", &|sc| {
-            let d = self.run(sc, "default", b, x).unwrap();
+            let d = self.run(sc, "default", self.summary_spokes(sc), x).unwrap();
             match d.metrics.depth_err_p99_mm {
                 Some(e) => format!("{e:.4} mm, {}", mark(e <= 0.05)),
                 None => "no contact judged".into(),
             }
         });
         row("p99 normal error <= 3 degrees", &|sc| {
-            let d = self.run(sc, "default", b, x).unwrap();
+            let d = self.run(sc, "default", self.summary_spokes(sc), x).unwrap();
             match d.metrics.normal_err_p99_deg {
                 Some(e) => format!("{e:.2} deg, {}", mark(e <= 3.0)),
                 None => "no contact judged".into(),
             }
         });
         row("all escaped samples detected", &|sc| {
-            let d = self.run(sc, "default", b, x).unwrap();
+            let d = self.run(sc, "default", self.summary_spokes(sc), x).unwrap();
             format!("{} / {}, {}", d.metrics.escaped_detected, d.metrics.escaped_total, mark(d.metrics.escaped_detected == d.metrics.escaped_total))
         });
         for how in ["denser", "longer"] {
             row(&format!("doubling the rings ({how}) changes the time by < 10%"), &|sc| match self.rings_doubled.iter().find(|r| r.scene == *sc && r.how == how) {
                 Some(r) => format!("{:+.1}% (medians), {}", 100.0 * (r.ratio_of_medians - 1.0), mark((r.ratio_of_medians - 1.0).abs() < 0.10)),
+                None if how == "denser" && self.scenes.iter().any(|i| i.scene == *sc && i.model.is_some()) => "not run (a model file is not rebuilt denser)".into(),
                 None => "not run".into(),
             });
         }
@@ -498,6 +534,7 @@ impl Report {
                 if pts.is_empty() {
                     continue;
                 }
+                let line_b = self.summary_spokes(scene);
                 let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
                 for &(_, t, e) in &pts {
                     x0 = x0.min(t);
@@ -532,14 +569,14 @@ impl Report {
                 for m in methods {
                     let c = colour(m);
                     let mine: Vec<&(&Run, f64, f64)> = pts.iter().filter(|p| p.0.method == m).collect();
-                    let mut line: Vec<(f64, f64)> = mine.iter().filter(|p| p.0.spokes == self.default_spokes).map(|p| (p.1, p.2)).collect();
+                    let mut line: Vec<(f64, f64)> = mine.iter().filter(|p| p.0.spokes == line_b).map(|p| (p.1, p.2)).collect();
                     line.sort_by(|a, b| a.0.total_cmp(&b.0));
                     chart
                         .draw_series(LineSeries::new(line, c.stroke_width(2)))?
-                        .label(format!("{m} (line: B = {})", self.default_spokes))
+                        .label(format!("{m} (line: B = {line_b})"))
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
                     chart.draw_series(mine.iter().map(|p| {
-                        let filled = p.0.spokes == self.default_spokes;
+                        let filled = p.0.spokes == line_b;
                         Circle::new((p.1, p.2), 4, if filled { c.filled() } else { c.stroke_width(1) })
                     }))?;
                     chart.draw_series(mine.iter().map(|p| Text::new(format!("x{} B{}", p.0.x, p.0.spokes), (p.1, p.2), ("sans-serif", 10).into_font().color(&c))))?;

@@ -1,14 +1,71 @@
 //! The benchmark's scenes: a colon and a deterministic sequence of endoscope frames in it
 //! ([`lumen_scene::endoscope::Insertion::frames`]), stored as flat states ready to be copied into
-//! the one buffer the detectors read.
+//! the one buffer the detectors read. The colon is one of `lumen-scene`'s ([`ColonKind`]) or a
+//! model file ([`Model`], what `lumen import` writes).
 
 use crate::{Error, Options};
-use lumen_detect::{ContactKind, Rod, Scene, SceneSpec, Tube};
+use lumen_detect::model::{is_text_path, parse_model, ImportInfo};
+use lumen_detect::{Body, ContactKind, Rod, Scene, SceneSpec, Tube};
 use lumen_import::ImportParams;
 use lumen_scene::colon::{generate, ColonParams};
 use lumen_scene::endoscope::Insertion;
 use lumen_scene::gca::{self, Source};
 pub use lumen_scene::ColonKind;
+use std::path::{Path, PathBuf};
+
+/// Where a scene's colon comes from: one of `lumen-scene`'s colons, rebuilt at each spoke
+/// count, or a model file, run as it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SceneKind {
+    Colon(ColonKind),
+    /// [`Options::model`]'s file (the report calls the scene `model`).
+    Model,
+}
+
+impl SceneKind {
+    /// The scene's name in the report: the colon's (`generated`, `gca`, ...), or `model`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneKind::Colon(k) => k.name(),
+            SceneKind::Model => "model",
+        }
+    }
+
+    /// Whether the colon is a real one (the GCA colon, or a model imported from a scan): judged
+    /// against the real colon's reference, entered to the real colon's depth.
+    pub fn real(self) -> bool {
+        matches!(self, SceneKind::Colon(ColonKind::Gca) | SceneKind::Model)
+    }
+}
+
+/// A tube model file, read with the loader of `lumen sim --model`
+/// ([`lumen_detect::model::parse_model`]: the native format, or the text format when the name
+/// ends in `.txt`).
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub path: PathBuf,
+    pub tube: Tube,
+    /// What the import that wrote it measured (the native files of `lumen import`); `None` for a
+    /// text file or a model from elsewhere.
+    pub import: Option<ImportInfo>,
+}
+
+impl Model {
+    /// Reads `path`; every error names it.
+    pub fn read(path: &Path) -> Result<Self, Error> {
+        let bytes = std::fs::read(path).map_err(|source| Error::ModelRead { path: path.to_owned(), source })?;
+        match parse_model(&bytes, is_text_path(path)) {
+            Ok((Body::Tube(tube), import)) => Ok(Self { path: path.to_owned(), tube, import }),
+            Ok((Body::Rod(_), _)) => Err(Error::Model { path: path.to_owned(), message: "holds a rod, not a colon (a tube)".into() }),
+            Err(e) => Err(Error::Model { path: path.to_owned(), message: e.to_string() }),
+        }
+    }
+
+    /// Arc length between its rings, on average (mm).
+    pub fn ring_spacing(&self) -> f64 {
+        length(&self.tube) / (self.tube.rings().max(2) - 1) as f64
+    }
+}
 
 /// A frame kept for judging: the colon and scope as generated.
 #[derive(Debug, Clone)]
@@ -28,7 +85,7 @@ pub struct EvalFrame {
 /// One scene at one spoke count: its frames as states, and the frames to judge.
 #[derive(Debug, Clone)]
 pub struct SceneData {
-    pub kind: ColonKind,
+    pub kind: SceneKind,
     pub spokes: usize,
     pub rings: usize,
     /// The scene spec at the default precision (precision and method are set per run).
@@ -43,8 +100,9 @@ pub struct SceneData {
     pub escaping_frames: usize,
     /// Tip depth of the first and last frame (mm of colon midline).
     pub depth_mm: [f32; 2],
-    /// What the import repaired, and its wall against the source surface (gca).
-    pub import_report: Option<lumen_import::ImportReport>,
+    /// What the import repaired, and its wall against the source surface (gca; a model file
+    /// that stores it).
+    pub import: Option<ImportInfo>,
     /// Data credit (gca).
     pub attribution: Option<&'static str>,
 }
@@ -83,12 +141,9 @@ pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
 }
 
 /// Tip depth (mm of midline) at the first frame: 1 m in the generated colon (as the README's
-/// benchmark), 700 mm in the shorter real one; at most 60% of a short colon.
-pub fn start_depth(kind: ColonKind, colon_length: f64) -> f32 {
-    let d: f64 = match kind {
-        ColonKind::Gca => 700.0,
-        _ => 1000.0,
-    };
+/// benchmark), 700 mm in the shorter real one (and a model's); at most 60% of a short colon.
+pub fn start_depth(kind: SceneKind, colon_length: f64) -> f32 {
+    let d: f64 = if kind.real() { 700.0 } else { 1000.0 };
     d.min(0.6 * colon_length) as f32
 }
 
@@ -106,7 +161,17 @@ pub fn is_eval(f: usize, escaped: bool, every: usize, escapes_every: usize) -> b
 /// 1 mm per frame), states, judged frames.
 pub fn build(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, gca: Option<&Source>, keep_eval: bool) -> Result<SceneData, Error> {
     let (colon, import_report) = colon(kind, spokes, ring_factor, opts, gca)?;
-    let rings = colon.rings();
+    let attribution = (kind == ColonKind::Gca).then(gca::attribution);
+    frames(SceneKind::Colon(kind), colon, import_report.map(|r| r.info()), attribution, opts, keep_eval)
+}
+
+/// Builds the scene of a model file as [`build`] does, at its own rings and spokes.
+pub fn build_model(model: &Model, opts: &Options, keep_eval: bool) -> Result<SceneData, Error> {
+    frames(SceneKind::Model, model.tube.clone(), model.import.clone(), None, opts, keep_eval)
+}
+
+fn frames(kind: SceneKind, colon: Tube, import: Option<ImportInfo>, attribution: Option<&'static str>, opts: &Options, keep_eval: bool) -> Result<SceneData, Error> {
+    let (rings, spokes) = (colon.rings(), colon.spokes);
     let insertion = Insertion::default();
     let start = start_depth(kind, length(&colon));
     let mut spec = None;
@@ -143,7 +208,7 @@ pub fn build(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
         }
     }
     let spec = spec.ok_or(Error::NoFrames)?;
-    Ok(SceneData { kind, spokes, rings, spec, floats, states, frames: opts.frames, eval, escaping_frames, depth_mm, import_report, attribution: (kind == ColonKind::Gca).then(gca::attribution) })
+    Ok(SceneData { kind, spokes, rings, spec, floats, states, frames: opts.frames, eval, escaping_frames, depth_mm, import, attribution })
 }
 
 /// `base` with its colon extended past its last ring by `extra` rings (straight on along the last
@@ -177,7 +242,7 @@ pub fn extended(base: &SceneData, extra: usize) -> SceneData {
         }
         states.extend_from_slice(rod);
     }
-    SceneData { spec, floats, states, rings, eval: Vec::new(), import_report: None, ..base.clone_empty() }
+    SceneData { spec, floats, states, rings, eval: Vec::new(), import: None, ..base.clone_empty() }
 }
 
 impl SceneData {
@@ -194,7 +259,7 @@ impl SceneData {
             eval: Vec::new(),
             escaping_frames: self.escaping_frames,
             depth_mm: self.depth_mm,
-            import_report: None,
+            import: None,
             attribution: self.attribution,
         }
     }

@@ -16,12 +16,11 @@
 use crate::baseline::ParryBaseline;
 use crate::metrics::{evaluate, plan, Reported, Tally, Truth, TruthParams};
 use crate::report::{RingsDoubled, Run, SceneInfo};
-use crate::scenes::{self, SceneData};
+use crate::scenes::{self, Model, SceneData, SceneKind};
 use crate::{Error, MethodKind, Options};
 use indicatif::ProgressBar;
 use lumen_detect::{Detector, Method, SceneSpec};
 use lumen_scene::gca::Source;
-use lumen_scene::ColonKind;
 use std::time::Instant;
 
 /// The timed figures of one pass (or the per-frame minimum of several).
@@ -187,17 +186,28 @@ fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut
     Ok(runs)
 }
 
-/// Runs the sweep for one scene kind at every spoke count.
-pub fn scene(kind: ColonKind, opts: &Options, gca: Option<&Source>, pb: &ProgressBar) -> Result<SceneResult, Error> {
+/// The scene of `kind` at `spokes` (a model at its own), rings `ring_factor` times denser; `None`
+/// for a model asked for denser rings (it cannot be rebuilt).
+fn build(kind: SceneKind, spokes: usize, ring_factor: f32, opts: &Options, gca: Option<&Source>, model: Option<&Model>, keep_eval: bool) -> Result<Option<SceneData>, Error> {
+    match kind {
+        SceneKind::Colon(k) => scenes::build(k, spokes, ring_factor, opts, gca, keep_eval).map(Some),
+        SceneKind::Model if ring_factor == 1.0 => scenes::build_model(model.ok_or(Error::ModelNotLoaded)?, opts, keep_eval).map(Some),
+        SceneKind::Model => Ok(None),
+    }
+}
+
+/// Runs the sweep for one scene kind at every spoke count (a model at its own).
+pub fn scene(kind: SceneKind, opts: &Options, gca: Option<&Source>, model: Option<&Model>, pb: &ProgressBar) -> Result<SceneResult, Error> {
     let mut out = SceneResult { infos: Vec::new(), runs: Vec::new(), doubled: Vec::new() };
-    let steps = match kind {
-        ColonKind::Gca => opts.reference_steps_gca,
-        _ => opts.reference_steps_generated,
+    let steps = if kind.real() { opts.reference_steps_gca } else { opts.reference_steps_generated };
+    let spokes = match (kind, model) {
+        (SceneKind::Model, Some(m)) => vec![m.tube.spokes],
+        _ => opts.spokes.clone(),
     };
-    for &b in &opts.spokes {
+    for &b in &spokes {
         pb.set_message(format!("{} B{b}: building frames", kind.name()));
         let t0 = Instant::now();
-        let scene = scenes::build(kind, b, 1.0, opts, gca, true)?;
+        let scene = build(kind, b, 1.0, opts, gca, model, true)?.ok_or(Error::NoFrames)?;
         let build_s = t0.elapsed().as_secs_f64();
         pb.inc_length(scene.eval.len() as u64);
         pb.inc(1);
@@ -253,15 +263,17 @@ pub fn scene(kind: ColonKind, opts: &Options, gca: Option<&Source>, pb: &Progres
             reference_bound_mm: bounds.iter().copied().fold(0.0, f32::max) as f64,
             build_s,
             judge_s,
-            import_report: scene.import_report.as_ref().map(|r| r.to_string()),
-            import_fidelity_mm: scene.import_report.as_ref().map(|r| [r.fidelity.p50, r.fidelity.p99, r.fidelity.max]),
+            import_report: scene.import.as_ref().map(|r| r.report.clone()),
+            import_fidelity_mm: scene.import.as_ref().map(|r| r.fidelity_mm),
+            import_kept_p99_mm: scene.import.as_ref().map(|r| r.kept_p99_mm),
+            model: (kind == SceneKind::Model).then(|| model.map(|m| m.path.display().to_string())).flatten(),
             attribution: scene.attribution.map(str::to_owned),
         });
         out.runs.append(&mut runs);
 
-        if opts.rings_doubled && b == opts.doubled_spokes && opts.methods.contains(&MethodKind::Default) {
+        if opts.rings_doubled && (b == opts.doubled_spokes || kind == SceneKind::Model) && opts.methods.contains(&MethodKind::Default) {
             drop(scene);
-            out.doubled = rings_doubled(kind, b, opts, gca, pb)?;
+            out.doubled = rings_doubled(kind, b, opts, gca, model, pb)?;
         }
     }
     Ok(out)
@@ -271,18 +283,19 @@ pub fn scene(kind: ColonKind, opts: &Options, gca: Option<&Source>, pb: &Progres
 /// rings at half the spacing (`denser`: same insertion and seed, so the same endoscope up to the
 /// colon's finer sampling), and on the same frames with the colon extended past its last ring
 /// by as many rings again (`longer`: the very same endoscope and contacts): per-frame times,
-/// passes alternated.
-pub fn rings_doubled(kind: ColonKind, spokes: usize, opts: &Options, gca: Option<&Source>, pb: &ProgressBar) -> Result<Vec<RingsDoubled>, Error> {
+/// passes alternated. A model has no `denser`.
+pub fn rings_doubled(kind: SceneKind, spokes: usize, opts: &Options, gca: Option<&Source>, model: Option<&Model>, pb: &ProgressBar) -> Result<Vec<RingsDoubled>, Error> {
     pb.set_message(format!("{} B{spokes}: rings doubled", kind.name()));
-    let base = scenes::build(kind, spokes, 1.0, opts, gca, false)?;
-    let denser = scenes::build(kind, spokes, 2.0, opts, gca, false)?;
+    let base = build(kind, spokes, 1.0, opts, gca, model, false)?.ok_or(Error::NoFrames)?;
+    let denser = build(kind, spokes, 2.0, opts, gca, model, false)?;
     let longer = scenes::extended(&base, base.rings);
     let x = opts.default_precision;
     let mut buf = Vec::new();
     let mut times: [Option<Vec<u64>>; 3] = [None, None, None];
     let mut contacts = [0.0; 3];
     for _ in 0..opts.repeats.max(1) {
-        for (i, sc) in [&base, &denser, &longer].into_iter().enumerate() {
+        for (i, sc) in [Some(&base), denser.as_ref(), Some(&longer)].into_iter().enumerate() {
+            let Some(sc) = sc else { continue };
             let t = pass(sc, x, MethodKind::Default, opts, &mut buf, None)?;
             contacts[i] = t.contacts;
             match &mut times[i] {
@@ -294,8 +307,9 @@ pub fn rings_doubled(kind: ColonKind, spokes: usize, opts: &Options, gca: Option
     pb.inc(1);
     let [tb, td, tl] = times.map(Option::unwrap_or_default);
     let (mb, pb99) = median_p99_us(&tb);
-    let out = [("denser", &denser, &td, contacts[1]), ("longer", &longer, &tl, contacts[2])]
+    let out = [("denser", denser.as_ref(), &td, contacts[1]), ("longer", Some(&longer), &tl, contacts[2])]
         .into_iter()
+        .filter_map(|(how, sc, t, c)| sc.map(|sc| (how, sc, t, c)))
         .map(|(how, sc, t, c)| {
             let (m, p) = median_p99_us(t);
             RingsDoubled {

@@ -372,3 +372,56 @@ fn the_report_shows_import_fidelity_beside_the_detection_errors() {
     let back = lumen_bench::Report::from_json(&serde_json::to_string(&report).unwrap()).unwrap();
     assert_eq!(back.scenes[0].import_fidelity_mm, Some([0.0085, 1.133, 14.13]));
 }
+
+#[test]
+fn a_model_file_runs_as_its_colon_and_reports_the_fidelity_it_stores() {
+    use lumen_detect::model::{save_native_with, to_text, ImportInfo};
+    let dir = std::env::temp_dir().join(format!("lumen-bench-model-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // The tiny sweep's generated colon, written as a model with an import's figures.
+    let base = Options { reference_steps_gca: 2, rings_doubled: false, ..tiny() };
+    let (colon, _) = lumen_bench::scenes::colon(ColonKind::Generated, 12, 1.0, &base, None).unwrap();
+    let info = ImportInfo { fidelity_mm: [0.01, 0.42, 3.5], kept_p99_mm: 0.3, samples: 4848, report: "Imported 101 rings x 12 spokes".into() };
+    let path = dir.join("gen.lumen");
+    std::fs::write(&path, save_native_with(&lumen_detect::Body::Tube(colon.clone()), Some(&info))).unwrap();
+    let generated = lumen_bench::run(&base, false).unwrap();
+    // The model alone (no scenes), at its own 12 spokes whatever --spokes says.
+    let opts = Options { scenes: vec![], model: Some(path.clone()), spokes: vec![16, 32], ..base.clone() };
+    let report = lumen_bench::run(&opts, false).unwrap();
+    assert_eq!(report.runs.len(), 2 * 5);
+    assert_eq!(report.scenes.len(), 1);
+    let s = &report.scenes[0];
+    assert_eq!((s.scene.as_str(), s.spokes, s.rings), ("model", 12, 101));
+    assert_eq!((s.import_fidelity_mm, s.import_kept_p99_mm), (Some([0.01, 0.42, 3.5]), Some(0.3)));
+    assert_eq!(s.model.as_deref(), Some(path.display().to_string().as_str()));
+    // The same colon and frames as the generated scene: the same contacts, judged the same.
+    for r in &report.runs {
+        let g = generated.run("generated", &r.method, 12, r.x).unwrap();
+        assert_eq!(
+            (r.metrics.missed, r.metrics.false_contacts, r.metrics.escaped_total, r.metrics.depth_err_p99_mm),
+            (g.metrics.missed, g.metrics.false_contacts, g.metrics.escaped_total, g.metrics.depth_err_p99_mm),
+            "{}",
+            r.method
+        );
+    }
+    let md = report.markdown();
+    assert!(md.contains("| model | 12 | 0.010 / 0.420 / 3.50 | 0.300 |") && md.contains("`model` is the model file") && md.contains("| model | 12 | 101 | 2 | default |"), "{md}");
+    assert_eq!(report.fidelity_note("model").unwrap(), "wall to surface p50 / p99 / max 0.010 / 0.420 / 3.50 mm");
+    // The text format holds the tube alone: run, and said to store no fidelity.
+    let txt = dir.join("gen.txt");
+    std::fs::write(&txt, to_text(&colon)).unwrap();
+    let report = lumen_bench::run(&Options { model: Some(txt), precisions: vec![1], methods: vec![MethodKind::Default], ..opts.clone() }, false).unwrap();
+    assert_eq!(report.scenes[0].import_fidelity_mm, None);
+    assert!(report.markdown().contains("| model | 12 | not stored in the model file"));
+    assert_eq!(report.fidelity_note("model").unwrap(), "wall to surface not stored in the model file");
+    // Beside a scene, after it.
+    let both = lumen_bench::run(&Options { scenes: vec![ColonKind::Generated], precisions: vec![1], methods: vec![MethodKind::Default], ..opts.clone() }, false).unwrap();
+    assert_eq!(both.runs.iter().map(|r| (r.scene.as_str(), r.spokes)).collect::<Vec<_>>(), [("generated", 16), ("generated", 32), ("model", 12)]);
+    // A file that is not there, or not a model: an error naming it, whatever else there is.
+    for (file, says) in [("absent.lumen", "No such file"), ("junk.lumen", "LUMN")] {
+        std::fs::write(dir.join("junk.lumen"), "not a model").unwrap();
+        let e = lumen_bench::run(&Options { scenes: vec![ColonKind::Generated], model: Some(dir.join(file)), ..opts.clone() }, false).unwrap_err().to_string();
+        assert!(e.contains(&dir.join(file).display().to_string()) && e.contains(says), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

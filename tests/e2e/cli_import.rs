@@ -187,3 +187,77 @@ fn the_readmes_import_of_the_real_colon_is_the_gca_scenes_colon() {
     assert_eq!(t, lumen_scene::gca::load(None, 2.0).unwrap(), "so `lumen demo --model gca.lumen` runs the colon the gca scene runs");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A closed tube of radius `r` about a gentle S-curve in the x-z plane, `len` mm along z, as an
+/// OBJ, and its midline as a CSV: a small colon for a whole import-to-bench run.
+fn s_tube(r: f32, len: f32) -> (String, String) {
+    let (around, along) = (48, (len / 4.0) as usize + 1);
+    let x = |z: f32| 20.0 * (std::f32::consts::TAU * z / len).sin();
+    let dx = |z: f32| 20.0 * std::f32::consts::TAU / len * (std::f32::consts::TAU * z / len).cos();
+    let mut obj = String::from("# an S-curved tube\n");
+    for j in 0..along {
+        let z = len * j as f32 / (along - 1) as f32;
+        // The ring plane is normal to the curve's tangent (1 along z, dx along x).
+        let n = (1.0 + dx(z) * dx(z)).sqrt();
+        let (ux, uz) = (1.0 / n, -dx(z) / n);
+        for i in 0..around {
+            let a = std::f32::consts::TAU * i as f32 / around as f32;
+            obj += &format!("v {} {} {}\n", x(z) + r * a.cos() * ux, r * a.sin(), z + r * a.cos() * uz);
+        }
+    }
+    let id = |j: usize, i: usize| j * around + i % around + 1;
+    for j in 0..along - 1 {
+        for i in 0..around {
+            obj += &format!("f {} {} {}\nf {} {} {}\n", id(j, i), id(j + 1, i), id(j + 1, i + 1), id(j, i), id(j + 1, i + 1), id(j, i + 1));
+        }
+    }
+    let (bottom, top) = (along * around + 1, along * around + 2);
+    obj += &format!("v {} 0 0\nv {} 0 {len}\n", x(0.0), x(len));
+    for i in 0..around {
+        obj += &format!("f {bottom} {} {}\nf {top} {} {}\n", id(0, i + 1), id(0, i), id(along - 1, i), id(along - 1, i + 1));
+    }
+    let mut csv = String::from("x,y,z\n");
+    let mut z = 2.0;
+    while z <= len - 2.0 {
+        csv += &format!("{},0,{z}\n", x(z));
+        z += 1.0;
+    }
+    (obj, csv)
+}
+
+#[test]
+fn bench_detect_runs_on_a_model_lumen_import_wrote() {
+    let d = dir("bench");
+    let (obj, csv) = s_tube(12.0, 240.0);
+    std::fs::write(d.join("s.obj"), obj).unwrap();
+    std::fs::write(d.join("s.csv"), csv).unwrap();
+    let o = Command::new(LUMEN).arg("import").arg(d.join("s.obj")).arg("--centerline").arg(d.join("s.csv")).args(["--spokes", "24", "-o"]).arg(d.join("s.lumen")).output().unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && stdout.contains("with the import's fidelity"), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+    let (_, info) = lumen_detect::model::load_native_with(&std::fs::read(d.join("s.lumen")).unwrap()).unwrap();
+    let info = info.expect("the import's fidelity in the model");
+    assert!(info.fidelity_mm[1] < 0.2 && info.report.contains("rays kept their first wall hit"), "{info:?}");
+    // The bench on that model alone, its fidelity beside the detection errors.
+    let out = d.join("out");
+    let o = Command::new(LUMEN).args(["bench", "detect", "--quick", "--no-progress", "--model"]).arg(d.join("s.lumen")).arg("--out").arg(&out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let p99 = format!("{:.3}", info.fidelity_mm[1]);
+    assert!(stderr.contains("model     B24 x4 default") && stderr.contains("model     B24 import: wall to surface") && stderr.contains(&p99), "{stderr}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("| model | 24 |") && md.contains("## Import fidelity") && md.contains(&format!("/ {p99} /")) && md.contains("s.lumen"), "{md}");
+    assert!(!md.contains("| generated |") && !md.contains("| gca |"), "the model alone: {md}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let scene = &json["scenes"][0];
+    assert_eq!(scene["scene"], "model");
+    assert_eq!(scene["import_fidelity_mm"][1].as_f64(), Some(info.fidelity_mm[1]));
+    assert!(json["runs"].as_array().unwrap().iter().all(|r| r["scene"] == "model" && r["spokes"] == 24));
+    // A model file that is not there, or not a model: the error names it.
+    for (file, says) in [("absent.lumen", "No such file"), ("s.csv", "LUMN")] {
+        let o = Command::new(LUMEN).args(["bench", "detect", "--quick", "--no-progress", "--model"]).arg(d.join(file)).arg("--out").arg(d.join("out2")).output().unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && stderr.contains(&d.join(file).display().to_string()) && stderr.contains(says), "{file}: {stderr}");
+    }
+    assert!(!d.join("out2").exists(), "no report without a model");
+    let _ = std::fs::remove_dir_all(&d);
+}
