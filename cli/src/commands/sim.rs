@@ -29,7 +29,8 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 3000)]
     pub frames: u64,
     /// The colon: generated, its hard variants narrow (below the scope's diameter in the anal
-    /// canal and the sigmoid) and collapsed (a collapsed sigmoid segment), or gca.
+    /// canal and the sigmoid), collapsed (a collapsed sigmoid segment), loop (a sigmoid that
+    /// winds once around) and tight-bend (bends tighter than the lumen), or gca.
     #[arg(long, default_value = "generated")]
     pub scene: ColonKind,
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
