@@ -173,18 +173,34 @@ fn a_vtk_surface_and_a_json_midline_import_like_obj_and_csv() {
 }
 
 #[test]
-fn the_readmes_import_of_the_real_colon_is_the_gca_scenes_colon() {
+fn the_readmes_import_of_the_real_colon_is_the_gca_scenes_colon_at_48_spokes() {
     let Ok((mesh, line)) = lumen_scene::gca::paths(None) else {
         eprintln!("skipped: the GCA colon is not at ../shared/data/colon-gca00090");
         return;
     };
     let d = dir("gca");
     // The README's "bring your own colon" command.
-    let out = Command::new(LUMEN).arg("import").arg(&mesh).arg("--centerline").arg(&line).args(["--tangent-smoothing", "24", "--inflate", "2", "-o"]).arg(d.join("gca.lumen")).output().unwrap();
+    let out = Command::new(LUMEN)
+        .arg("import")
+        .arg(&mesh)
+        .arg("--centerline")
+        .arg(&line)
+        .args(["--spokes", "48", "--tangent-smoothing", "24", "--inflate", "2", "-o"])
+        .arg(d.join("gca.lumen"))
+        .output()
+        .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && stdout.contains("Wall (before inflation) to surface"), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    let Body::Tube(t) = load_native(&std::fs::read(d.join("gca.lumen")).unwrap()).unwrap() else { panic!("not a tube") };
-    assert_eq!(t, lumen_scene::gca::load(None, 2.0).unwrap(), "so `lumen demo --model gca.lumen` runs the colon the gca scene runs");
+    let (Body::Tube(t), info) = lumen_detect::model::load_native_with(&std::fs::read(d.join("gca.lumen")).unwrap()).unwrap() else { panic!("not a tube") };
+    // The gca scene's colon (ImportParams::gca) but for its 32 spokes.
+    let params = lumen_import::ImportParams { spokes: 48, ..lumen_import::ImportParams::gca() };
+    let (scene, report) = lumen_scene::gca::Source::read(None).unwrap().tube(&params).unwrap();
+    assert_eq!(t, scene, "so `lumen demo --model gca.lumen` runs the gca scene's colon at 48 spokes");
+    // The README's figure: the wall's p99 distance to the surface under 0.5 mm, stored in the
+    // model as measured.
+    let info = info.expect("the import's fidelity in the model");
+    assert_eq!(info.fidelity_mm, [report.fidelity.p50, report.fidelity.p99, report.fidelity.max]);
+    assert!(info.fidelity_mm[1] < 0.5, "{info:?}");
     let _ = std::fs::remove_dir_all(&d);
 }
 
