@@ -77,6 +77,12 @@ fn shown(page: &mut Page) -> Value {
     .unwrap()
 }
 
+/// Moves a recording's scrubber to `index` as a person drags it, and waits for that frame.
+fn scrub(page: &mut Page, index: impl std::fmt::Display, what: &str) {
+    page.eval(&format!("(() => {{ const s = document.getElementById('scrub'); s.value = '{index}'; s.dispatchEvent(new Event('input')); return true; }})()")).unwrap();
+    page.wait_for(&format!("lumenView.stats.index === {index}"), WAIT).expect(what);
+}
+
 /// Draws once more with the wall shown or hidden and takes a screenshot.
 fn screenshot(page: &mut Page, wall: bool, name: &str) -> Image {
     page.eval(&format!("(() => {{ const w = document.getElementById('wall'); w.checked = {wall}; w.dispatchEvent(new Event('change')); return true; }})()")).unwrap();
@@ -347,8 +353,7 @@ fn a_recording_plays_and_the_scrubber_moves_it_to_a_chosen_frame() {
     assert_eq!(page.eval("document.getElementById('scrub').max").unwrap(), (n - 1).to_string());
 
     // The scrubber, moved as a person drags it.
-    page.eval(&format!("(() => {{ const s = document.getElementById('scrub'); s.value = '{chosen}'; s.dispatchEvent(new Event('input')); return true; }})()")).unwrap();
-    page.wait_for(&format!("lumenView.stats.index === {chosen}"), WAIT).expect("the scrubber moved the recording");
+    scrub(&mut page, chosen, "the scrubber moved the recording");
     let s = shown(&mut page);
     assert_eq!(s["panel"]["index"].as_str().unwrap(), chosen.to_string());
     assert_eq!(s["panel"]["session"].as_str().unwrap(), rec.session.to_string());
@@ -451,8 +456,7 @@ fn in_vr_the_colon_is_at_room_scale_with_the_same_contacts() {
     page.add_init_script(FAKE_XR_SESSION).unwrap();
     page.navigate(&url).unwrap();
     page.wait_for("lumenView.frames > 0 && lumenView.xr === true", WAIT).expect("the page offers VR");
-    page.eval(&format!("(() => {{ const s = document.getElementById('scrub'); s.value = '{at}'; s.dispatchEvent(new Event('input')); return true; }})()")).unwrap();
-    page.wait_for(&format!("lumenView.stats.index === {at}"), WAIT).expect("the frame with its reply");
+    scrub(&mut page, at, "the frame with its reply");
     page.eval("document.getElementById('enter-vr').click(); true").unwrap();
     page.wait_for("lumenView.xrFrames > 3", WAIT).expect("the page draws in VR");
     let s = shown(&mut page);
@@ -516,8 +520,7 @@ fn the_demo_with_view_shows_the_colonoscopy_live() {
     let at = (frames.len() / 2..frames.len()).find(|&i| rec.replies.get(&frames[i].header.frame).is_some_and(|r| r.contacts.len() >= 5)).expect("a recorded frame with contacts");
     let (_view, url) = start_view(&[path.to_str().unwrap(), "--paused"]);
     let mut page = open(&browser, &url);
-    page.eval(&format!("(() => {{ const s = document.getElementById('scrub'); s.value = '{at}'; s.dispatchEvent(new Event('input')); return true; }})()")).unwrap();
-    page.wait_for(&format!("lumenView.stats.index === {at}"), WAIT).expect("the scrubber moved the recording");
+    scrub(&mut page, at, "the scrubber moved the recording");
     let s = shown(&mut page);
     let reply = &rec.replies[&frames[at].header.frame];
     check_frame(&mut page, &s, &rec.spec, &frames[at].state, &reply.contacts, reply.header.detect_ns, "demo-recording");
