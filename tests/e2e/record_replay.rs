@@ -295,7 +295,9 @@ fn a_colon_sized_run_records_whole_and_replays() {
         for (k, state) in states.iter().enumerate() {
             session.submit_state(state).unwrap();
             assert_eq!(session.contacts(WAIT).unwrap().frame(), k as u64);
-            std::thread::sleep(Duration::from_millis(20));
+            // The first frame carries the whole colon to the scene channel (3 MB of JSON, far
+            // slower in a debug build than a frame's 20 ms): the pace leaves it that time.
+            std::thread::sleep(Duration::from_millis(if k == 0 { 1500 } else { 20 }));
         }
         std::thread::sleep(Duration::from_millis(200));
         drop(session);
