@@ -34,11 +34,17 @@
 //! itself ([`SigmoidLoop`], every check kept, and its own: [`MIN_LOOP_TURN_DEG`],
 //! [`MAX_LOOP_PASS_GAP_MM`]). [`GeneratedColon`] reports what each became.
 //!
+//! **Folds.** Where a bend is tighter than the lumen (the tight bends), the planes of its rings
+//! cross inside the lumen, and the spokes on the inside of the bend that reach past a crossing
+//! are shortened to short of it ([`Tube::unfold`]): the lumen there is what the sections hold
+//! without passing over one another ([`GeneratedColon::folds`] says how much).
+//!
 //! **Rings.** Spoke `k` of a ring points along `cos(a) n + sin(a) b`, `a = 2 pi k / B`, with
 //! `(n, b)` a rotation-minimising frame and `b = t x n` (`t` the unit tangent): counter-
 //! clockwise about the tangent.
 
 use crate::rng::{hash_unit, Rng};
+use lumen_detect::model::FoldReport;
 use lumen_detect::Tube;
 use lumen_import::geom::{any_perpendicular, arc_lengths, at_arc, locate_arc, rotation_minimising, V3d};
 use std::f64::consts::{PI, TAU};
@@ -295,6 +301,9 @@ pub struct GeneratedColon {
     pub tight_bends: Vec<TightBendReport>,
     /// What [`ColonParams::sigmoid_loop`] became.
     pub sigmoid_loop: Option<LoopReport>,
+    /// The spokes shortened where ring planes cross inside the lumen ([`Tube::unfold`]): none
+    /// unless a bend is tighter than the lumen.
+    pub folds: FoldReport,
 }
 
 /// A tight bend as generated (the generator's own measures, on its dense midline).
@@ -874,9 +883,11 @@ pub fn generate_detailed(params: &ColonParams) -> GeneratedColon {
         }
     }
     let points = pts.into_iter().map(lumen_import::geom::f3).collect();
-    let tube = Tube::new(points, radial, b).expect("generated colon is a valid tube");
+    let mut tube = Tube::new(points, radial, b).expect("generated colon is a valid tube");
+    let folds = tube.unfold();
     GeneratedColon {
         tube,
+        folds,
         arc: arc.iter().map(|&a| a as f32).collect(),
         regions: c.regions.iter().map(|&(a, r)| (r, a as f32)).collect(),
         attempt,

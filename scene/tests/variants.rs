@@ -2,6 +2,7 @@
 //! than the lumen) and `loop` (a sigmoid that winds once around and passes beside itself),
 //! measured on the tubes themselves, not on what the generator says of them.
 
+use lumen_detect::model::FoldReport;
 use lumen_detect::Tube;
 use lumen_import::probe::clearance;
 use lumen_scene::colon::{generate, generate_detailed, GeneratedColon, MAX_LOOP_PASS_GAP_MM, MIN_LOOP_TURN_DEG, MIN_WALL_GAP_MM};
@@ -90,8 +91,17 @@ fn tight_bend_is_deterministic_and_bends_tighter_than_its_lumen_in_two_places() 
             );
             assert!(ratio < 0.8 && b.ratio < 0.8, "seed {seed}, bend {k}: ratio {ratio:.2} (generator {:.2})", b.ratio);
             assert!(b.turn_deg >= 45.0, "seed {seed}, bend {k}: turns {:.0} degrees", b.turn_deg);
-            assert!(cross_at < reach, "seed {seed}, bend {k}: ring planes cross {cross_at:.1} mm out, the wall is {reach:.1} mm");
+            // The planes cross inside the lumen (its longest spoke there reaches further), and
+            // the spokes that reached past the crossing now end short of it (Tube::unfold).
+            let lumen = longest_spoke(t, mid);
+            assert!(cross_at < lumen, "seed {seed}, bend {k}: ring planes cross {cross_at:.1} mm out, the lumen is {lumen:.1} mm");
+            assert!(reach < cross_at, "seed {seed}, bend {k}: the wall towards the crossing is {reach:.1} mm out, the planes cross {cross_at:.1} mm out");
         }
+        // Only spokes beside the bends were shortened, and nothing folds any more.
+        let (first, last) = g.folds.ring_range.expect("spokes shortened at the tight bends");
+        let near_a_bend = |i: usize| g.tight_bends.iter().any(|b| g.arc[i] >= b.window_mm[0] - 40.0 && g.arc[i] <= b.window_mm[1] + 40.0);
+        assert!(near_a_bend(first) && near_a_bend(last), "seed {seed}: spokes shortened at rings {first}-{last}");
+        assert_eq!(g.tube.clone().unfold(), FoldReport::default(), "seed {seed}");
         // Where the scripted colonoscopy goes: the rectosigmoid junction and the top of the sigmoid.
         let (a, b) = (g.tight_bends[0].at_mm, g.tight_bends[1].at_mm);
         assert!((120.0..200.0).contains(&a) && (280.0..350.0).contains(&b) && b - a > 100.0, "bends at {a:.0} and {b:.0} mm");
@@ -104,7 +114,8 @@ fn tight_bend_is_deterministic_and_bends_tighter_than_its_lumen_in_two_places() 
         assert!(c.min_wall_gap > 0.0 || (beside(c.at.0).is_some() && beside(c.at.0) == beside(c.at.1)), "seed {seed}: walls overlap at rings {:?}", c.at);
     }
     // The default colon keeps its checks.
-    assert!(generate_detailed(&ColonKind::Generated.generated(1).unwrap()).tight_bends.is_empty());
+    let plain = generate_detailed(&ColonKind::Generated.generated(1).unwrap());
+    assert!(plain.tight_bends.is_empty() && plain.folds == FoldReport::default());
     assert_eq!("tight-bend".parse::<ColonKind>(), Ok(ColonKind::TightBend));
 }
 

@@ -4,9 +4,11 @@
 //! for loading, saving, generating and checking models, and [`Scene`] turns them into a spec
 //! and a state.
 
+mod fold;
 mod native;
 mod text;
 
+pub use fold::{FoldReport, KEEP as FOLD_KEEP, WINDOW as FOLD_WINDOW};
 pub use native::{load_native, load_native_with, save_native, save_native_with};
 pub use text::{parse_text, to_text};
 
