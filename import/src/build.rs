@@ -24,11 +24,14 @@ pub struct ImportParams {
     pub tangent_smoothing_mm: f32,
     /// Gaussian smoothing of the midline's points, sigma (default 1 mm).
     pub point_smoothing_mm: f32,
+    /// Whether spokes that reach past another ring's plane inside its lumen are shortened to
+    /// short of it ([`Tube::unfold`]; default false: counted in the report, left as they are).
+    pub unfold: bool,
 }
 
 impl Default for ImportParams {
     fn default() -> Self {
-        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0 }
+        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0, unfold: false }
     }
 }
 
@@ -110,6 +113,11 @@ pub struct ImportReport {
     /// centre of curvature lies inside the lumen, so neighbouring rings cross there). Not
     /// repaired; for information.
     pub tight_bends: usize,
+    /// Spokes on the inside of those bends that reach past another ring's plane inside its
+    /// lumen (the wall passes over itself there: [`Tube::unfold`]), after inflation; shortened
+    /// where `unfolded` (after the fidelity measure), else left as they are.
+    pub folds: lumen_detect::model::FoldReport,
+    pub unfolded: bool,
     /// Radial vector lengths after inflation: min, 5th percentile, median, 95th, max.
     pub radius_mm: [f64; 5],
     /// Whether at least 80% of first hits agree on which way the surface faces, so hits from
@@ -188,7 +196,7 @@ impl fmt::Display for ImportReport {
         let [r0, r5, r50, r95, r100] = self.radius_mm;
         write!(
             f,
-            "Imported {} rings x {} spokes along {:.1} mm of midline ({} rays), radii x{}: {} rays kept their first wall hit and {} ({:.2}%) were repaired: {} missed the surface, {} hit a neighbouring loop, {} were outliers against their neighbouring rings or spokes{}; {} were interpolated from the nearest kept spokes of their ring and {} clamped to their ring's median, and {} rings borrowed their median from neighbouring rings. Radius min / p5 / median / p95 / max: {:.1} / {:.1} / {:.1} / {:.1} / {:.1} mm. {} rings lie in bends tighter than the lumen's radius on their inner side, where neighbouring rings cross inside the lumen (not repaired).",
+            "Imported {} rings x {} spokes along {:.1} mm of midline ({} rays), radii x{}: {} rays kept their first wall hit and {} ({:.2}%) were repaired: {} missed the surface, {} hit a neighbouring loop, {} were outliers against their neighbouring rings or spokes{}; {} were interpolated from the nearest kept spokes of their ring and {} clamped to their ring's median, and {} rings borrowed their median from neighbouring rings. Radius min / p5 / median / p95 / max: {:.1} / {:.1} / {:.1} / {:.1} / {:.1} mm. {} rings lie in bends tighter than the lumen's radius on their inner side, where neighbouring rings cross inside the lumen; {}.",
             self.rings,
             self.spokes,
             self.centerline_mm,
@@ -213,7 +221,18 @@ impl fmt::Display for ImportReport {
             r50,
             r95,
             r100,
-            self.tight_bends
+            self.tight_bends,
+            match self.folds.ring_range {
+                None => "no spoke reached past another ring's plane".to_string(),
+                Some((a, z)) => format!(
+                    "{} spokes of {} rings (rings {a}-{z}) reach past another ring's plane there, {} (by up to {:.1} mm, {:.0}% of a spoke)",
+                    self.folds.spokes,
+                    self.folds.rings,
+                    if self.unfolded { "and were shortened to short of it" } else { "left as they are (--unfold shortens them)" },
+                    self.folds.max_cut,
+                    100.0 * self.folds.max_cut_fraction
+                ),
+            }
         )?;
         let w = &self.fidelity;
         write!(
@@ -680,5 +699,8 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
     let repaired: Vec<bool> = cls.iter().map(|c| !matches!(c, Ray1::Hit(_))).collect();
     report.fidelity = crate::fidelity::wall_to_surface(&tube, params.inflate, &trimesh, &repaired);
+    let mut tube = tube;
+    report.folds = if params.unfold { tube.unfold() } else { tube.clone().unfold() };
+    report.unfolded = params.unfold;
     Ok((tube, report))
 }

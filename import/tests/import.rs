@@ -185,6 +185,7 @@ fn a_cylinder_imports_with_its_radius_and_no_repairs() {
     assert!(lo > 9.985 && hi < 10.001, "radii {lo}..{hi}");
     assert_eq!(tube.first_non_star(), None);
     assert!((rep.radius_mm[2] - 10.0).abs() < 0.02);
+    assert_eq!(rep.folds, lumen_detect::model::FoldReport::default());
     let text = rep.to_string();
     assert!(text.contains("91 rings x 32 spokes") && text.contains("0 (0.00%) were repaired"), "{text}");
     // Inflated twice.
@@ -326,4 +327,41 @@ fn a_neighbouring_loop_through_a_gap_is_still_repaired() {
     // The repaired wall bridges the 8.7 mm slit, up to 4.4 mm from its edges; between kept
     // spokes the wall is on the surface.
     assert!(w.near_repaired > 0 && w.p99 > 3.0 && w.kept_p99 < 0.1, "{w:?}");
+}
+
+#[test]
+fn spokes_past_a_tight_bends_crossing_planes_are_counted_and_shortened_with_unfold() {
+    // A wide cylinder (radius 30) and a midline that turns 90 degrees on a 5 mm arc inside it: the
+    // arc's ring planes cross 5 mm from the midline, and the spokes on its inside reach the wall
+    // 20 mm or more beyond.
+    let mesh = cylinder(0.0, 30.0, 100.0, 96, 40);
+    let mut points: Vec<[f32; 3]> = (0..=30).map(|i| [0.0, 0.0, 10.0 + i as f32]).collect();
+    let arc: Vec<[f32; 3]> = (1..=8)
+        .map(|i| {
+            let a = std::f32::consts::FRAC_PI_2 * i as f32 / 8.0;
+            [5.0 - 5.0 * a.cos(), 0.0, 40.0 + 5.0 * a.sin()]
+        })
+        .collect();
+    points.extend(arc);
+    points.extend((1..=15).map(|i| [5.0 + i as f32, 0.0, 45.0]));
+    let line = Centerline { points, ..Default::default() };
+    let params = ImportParams { tangent_smoothing_mm: 0.5, point_smoothing_mm: 0.0, ..Default::default() };
+    let (kept, rep) = build_tube(&mesh, &line, &params).unwrap();
+    let (unfolded, rep_u) = build_tube(&mesh, &line, &ImportParams { unfold: true, ..params }).unwrap();
+    eprintln!("{rep_u}");
+    let folds = rep.folds;
+    assert!(folds.spokes > 10 && folds.max_cut > 5.0, "{folds:?}");
+    assert_eq!(rep_u.folds, folds);
+    assert!(!rep.unfolded && rep_u.unfolded);
+    assert!(rep.to_string().contains("left as they are (--unfold shortens them)"), "{rep}");
+    assert!(rep_u.to_string().contains("and were shortened to short of it"), "{rep_u}");
+    // Left as they are without --unfold; with it, exactly what Tube::unfold makes of them, and
+    // nothing left to shorten.
+    let mut again = kept.clone();
+    assert_eq!(again.unfold(), folds);
+    assert_eq!(again, unfolded);
+    assert_ne!(kept, unfolded);
+    assert_eq!(unfolded.clone().unfold(), lumen_detect::model::FoldReport::default());
+    // The fidelity is the wall's before the shortening: the same either way.
+    assert_eq!(rep.fidelity.p99, rep_u.fidelity.p99);
 }
