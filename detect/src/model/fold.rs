@@ -76,7 +76,7 @@ impl Tube {
             for k in 0..b {
                 let s = v(self.spoke(i, k));
                 let len = s.norm();
-                if !(len > 0.0) {
+                if len <= 0.0 {
                     continue;
                 }
                 let d = s / len;
