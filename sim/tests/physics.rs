@@ -6,6 +6,8 @@ use lumen_proto::Contact;
 use lumen_sim::{setup, Action, FnSource, InProcess, Phase, Rod, RodParams, Script, SimConfig, SourceError, V3d, World};
 use std::time::Instant;
 
+mod common;
+
 /// A straight tube along +x: `rings` rings 1.2 mm apart, 32 spokes of `radius` mm.
 fn straight_tube(rings: usize, radius: f32) -> Tube {
     let b = 32;
@@ -197,20 +199,9 @@ fn the_scripted_colonoscopy_in_the_real_colon_never_escapes() {
             return;
         }
     };
-    let config = SimConfig { script: Script::short_colonoscopy(), sim: lumen_sim::SimParams { relax_s: 0.05, ..Default::default() }, ..SimConfig::default() };
-    let mut world = World::in_process(&colon, config).unwrap();
-    let (mut worst, mut force) = (0.0f32, 0.0f64);
-    for _ in 0..600 {
-        let r = world.step().unwrap_or_else(|e| panic!("{e}"));
-        assert!(!r.nan);
-        assert_eq!(r.escaped, 0, "frame {} ({}): {r:?}", r.frame, r.phase_name);
-        // The limit, as on the generated colon. Measured 0.64 mm at most, with every
-        // wall within the margin of a sample answered (0.76 mm with the nearest wall alone, 3.4
-        // mm with the sections' readings alone; a crossing of planes cost tens of millimetres).
-        assert!(r.max_penetration_mm <= 1.0, "frame {} ({}): {r:?}", r.frame, r.phase_name);
-        worst = worst.max(r.max_penetration_mm);
-        force = force.max(r.hand_force_n);
-    }
-    eprintln!("600 frames in the real colon: max penetration {worst:.3} mm, hand force up to {force:.1} N");
+    // The limit, as on the generated colon. Measured 0.64 mm at most, with every wall
+    // within the margin of a sample answered (0.76 mm with the nearest wall alone, 3.4 mm with
+    // the sections' readings alone; a crossing of planes cost tens of millimetres).
+    let (_, force) = common::short_run(&colon, "the real colon");
     assert!(force > 30.0, "the hard push pushed hard: {force:.1} N");
 }

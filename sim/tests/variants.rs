@@ -3,7 +3,9 @@
 
 use lumen_scene::colon::generate_detailed;
 use lumen_scene::ColonKind;
-use lumen_sim::{setup, Script, SimConfig, SimParams, World};
+use lumen_sim::setup;
+
+mod common;
 
 /// Where the scripted colonoscopy starts the tip: 20 mm before the sigmoid's sharpest bend
 /// whose ring planes do not cross (`World`'s default start).
@@ -35,26 +37,12 @@ fn the_scope_lies_through_both_tight_bends_and_the_whole_loop() {
     }
 }
 
-/// The short colonoscopy (600 frames) on a colon, every frame checked against the issue's
-/// limits; the deepest penetration.
-fn short_run(kind: ColonKind) -> f32 {
-    let colon = setup::colon(kind, 1, None).unwrap();
-    let config = SimConfig { script: Script::short_colonoscopy(), sim: SimParams { relax_s: 0.05, ..Default::default() }, ..SimConfig::default() };
-    let mut world = World::in_process(&colon, config).unwrap();
-    let (mut worst, mut force) = (0.0f32, 0.0f64);
-    for _ in 0..600 {
-        let r = world.step().unwrap_or_else(|e| panic!("{e}"));
-        assert!(!r.nan);
-        assert_eq!(r.escaped, 0, "{kind} frame {} ({}): {r:?}", r.frame, r.phase_name);
-        assert!(r.max_penetration_mm <= 1.0, "{kind} frame {} ({}): {r:?}", r.frame, r.phase_name);
-        worst = worst.max(r.max_penetration_mm);
-        force = force.max(r.hand_force_n);
-    }
-    eprintln!("600 frames of {kind}: max penetration {worst:.3} mm, hand force up to {force:.1} N");
-    // The hard push loaded the scope (its limit is 40 N; measured 40 in the loop, 28 in the
-    // tight bends, where the scope slides on).
+/// The short colonoscopy in the generated colon `kind` ([`common::short_run`], every frame held
+/// to the limits), and the hard push loaded the scope (its limit is 40 N; measured 40 in
+/// the loop, 28 in the tight bends, where the scope slides on).
+fn short_run(kind: ColonKind) {
+    let (_, force) = common::short_run(&setup::colon(kind, 1, None).unwrap(), &kind.to_string());
     assert!(force > 20.0, "the hard push did not push hard: {force:.1} N");
-    worst
 }
 
 #[test]
