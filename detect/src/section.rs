@@ -44,6 +44,31 @@ pub struct Ring {
     pub size: f32,
 }
 
+/// A ring's plane from `chord`, the chord through its neighbours' control points, and its
+/// spokes `0, B/4, B/2, 3B/4`: the unit normal, the spokes' orientation about it and the
+/// longest of the four (see [`Ring`]). The two "diagonals" cross in the ring's area normal for
+/// any planar section (O(1), where the full area normal costs O(B)), oriented along the chord;
+/// the chord itself stands in where the ring is collapsed or lies nearly along the midline
+/// (|cos| <= 0.1). Generic so that a model's checks ([`crate::model::Tube::unfold`], in `f64`)
+/// read the very planes the detector reads.
+#[inline]
+pub fn ring_plane<T: nalgebra::RealField + Copy>(chord: nalgebra::Vector3<T>, s: [nalgebra::Vector3<T>; 4]) -> (nalgebra::Vector3<T>, T, T) {
+    let size2 = s.iter().map(|v| v.norm_squared()).fold(T::zero(), |a, b| a.max(b));
+    let area = (s[2] - s[0]).cross(&(s[3] - s[1]));
+    let (an2, tn2) = (area.norm_squared(), chord.norm_squared());
+    let at = area.dot(&chord);
+    let o = if at < T::zero() { -T::one() } else { T::one() };
+    // Squared comparisons: one square root per ring on the common path.
+    let n = if an2 > nalgebra::convert::<f64, T>(1e-12) * size2 * size2 && an2 > T::zero() && (tn2 == T::zero() || at * at > nalgebra::convert::<f64, T>(0.01) * an2 * tn2) {
+        area * (o / an2.sqrt())
+    } else if tn2 > T::zero() {
+        chord / tn2.sqrt()
+    } else {
+        nalgebra::Vector3::x()
+    };
+    (n, o, size2.sqrt())
+}
+
 /// Lazily computed, frame-stamped cubics and rings of one tube: only what the rod's samples
 /// touch is computed, so a frame costs what the rod needs, not what the tube holds.
 #[derive(Debug, Clone, Default)]
@@ -406,26 +431,9 @@ impl TubeCache {
     fn compute_ring(&self, t: &TubeView, i: usize) -> Ring {
         // The chord through the neighbours orients the ring (and stands in for a collapsed one):
         // the spline's own tangent would cost a whole segment's coefficients per ring.
-        let tangent = t.point((i + 1).min(t.rings - 1)) - t.point(i.saturating_sub(1));
-        // Two "diagonals" of the ring: their cross product is the ring's area normal for any
-        // planar section, at O(1) cost instead of O(B).
+        let chord = t.point((i + 1).min(t.rings - 1)) - t.point(i.saturating_sub(1));
         let b = t.spokes;
-        let s = [t.spoke(i, 0), t.spoke(i, b / 4), t.spoke(i, b / 2), t.spoke(i, 3 * b / 4)];
-        let size2 = s.iter().map(|v| v.norm_squared()).fold(0.0f32, f32::max);
-        let area = (s[2] - s[0]).cross(&(s[3] - s[1]));
-        let (an2, tn2) = (area.norm_squared(), tangent.norm_squared());
-        let at = area.dot(&tangent);
-        let o = if at < 0.0 { -1.0 } else { 1.0 };
-        // Squared comparisons: one square root per ring on the common path. A ring nearly
-        // parallel to the midline (|cos| <= 0.1) cannot slice it: the tangent stands in.
-        let n = if an2 > 1e-12 * size2 * size2 && an2 > 0.0 && (tn2 == 0.0 || at * at > 0.01 * an2 * tn2) {
-            area * (o / an2.sqrt())
-        } else if tn2 > 0.0 {
-            tangent / tn2.sqrt()
-        } else {
-            V3::x()
-        };
-        let size = size2.sqrt();
+        let (n, o, size) = ring_plane(chord, [t.spoke(i, 0), t.spoke(i, b / 4), t.spoke(i, b / 2), t.spoke(i, 3 * b / 4)]);
         Ring { n, o, size }
     }
 

@@ -25,12 +25,13 @@
 //! as it was. The room left ([`KEEP`]) is for the wall to give outward (a simulator moves spoke
 //! tips outward where the scope presses) without passing the crossing.
 //!
-//! The ring normals are the ones the detector reads ([`crate::section`]): each ring's area
-//! normal from four of its spokes, oriented along the chord through its neighbours, the chord
-//! itself where the ring is collapsed. Shortening a spoke along itself leaves a planar ring's
+//! The ring normals are the ones the detector reads ([`ring_plane`]): each ring's area normal
+//! from four of its spokes, oriented along the chord through its neighbours, the chord itself
+//! where the ring is collapsed. Shortening a spoke along itself leaves a planar ring's
 //! plane as it was, so one pass is enough. Computed in `f64`, relative to each ring's point.
 
 use super::Tube;
+use crate::section::ring_plane;
 
 /// Rings each way whose planes a spoke is checked against: a bend's planes cross within a few
 /// centimetres of arc at the rings' usual millimetre spacing.
@@ -116,24 +117,11 @@ impl Tube {
         report
     }
 
-    /// Ring `i`'s plane normal as the detector reads it: the area normal of spokes `0, B/4, B/2,
-    /// 3B/4`, oriented along the chord through its neighbours; that chord where the ring is
-    /// collapsed or lies nearly along the midline.
+    /// Ring `i`'s plane normal as the detector reads it ([`ring_plane`]), in `f64`.
     fn ring_normal(&self, i: usize) -> V {
         let (n, b) = (self.rings(), self.spokes);
         let chord = v(self.points[(i + 1).min(n - 1)]) - v(self.points[i.saturating_sub(1)]);
-        let s = [0, b / 4, b / 2, 3 * b / 4].map(|k| v(self.spoke(i, k)));
-        let size2 = s.iter().map(|x| x.norm_squared()).fold(0.0, f64::max);
-        let area = (s[2] - s[0]).cross(&(s[3] - s[1]));
-        let (an2, cn2) = (area.norm_squared(), chord.norm_squared());
-        let at = area.dot(&chord);
-        if an2 > 1e-12 * size2 * size2 && (cn2 == 0.0 || at * at > 0.01 * an2 * cn2) {
-            area * (at.signum() / an2.sqrt())
-        } else if cn2 > 0.0 {
-            chord / cn2.sqrt()
-        } else {
-            V::x()
-        }
+        ring_plane(chord, [0, b / 4, b / 2, 3 * b / 4].map(|k| v(self.spoke(i, k)))).0
     }
 }
 
