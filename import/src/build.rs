@@ -696,10 +696,9 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let mut sorted = lengths.clone();
     sorted.sort_by(f64::total_cmp);
     report.radius_mm = [0.0, 0.05, 0.5, 0.95, 1.0].map(|q| quantile(&sorted, q));
-    let tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
+    let mut tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
     let repaired: Vec<bool> = cls.iter().map(|c| !matches!(c, Ray1::Hit(_))).collect();
     report.fidelity = crate::fidelity::wall_to_surface(&tube, params.inflate, &trimesh, &repaired);
-    let mut tube = tube;
     report.folds = if params.unfold { tube.unfold() } else { tube.clone().unfold() };
     report.unfolded = params.unfold;
     Ok((tube, report))
