@@ -1,7 +1,8 @@
 //! JSON control replies, shared by both transports.
 
 use crate::Error;
-use lumen_proto::session::{ControlReply, ErrorCode};
+use lumen_proto::auth::Secret;
+use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo};
 use std::time::Duration;
 
 /// How long a session waits for the daemon's answer when it reopens or asks whether it still
@@ -29,4 +30,15 @@ pub(crate) fn closed(reply: Result<ControlReply, Error>, session: u64) -> Result
         ControlReply::Error(e) if e.code == ErrorCode::UnknownSession => Ok(()),
         other => Err(unexpected(other)),
     }
+}
+
+/// The secret of an `opened` reply.
+pub(crate) fn secret(info: &SessionInfo) -> Result<Secret, Error> {
+    Secret::parse(&info.secret).map_err(|e| Error::Protocol(format!("the opened reply of session {}: {e}", info.session)))
+}
+
+/// The request that closes the session of `info`, with the proof of its secret (an empty proof,
+/// which the daemon refuses, where `info` holds none: a described session is not ours).
+pub(crate) fn close_request(info: &SessionInfo) -> ControlRequest {
+    ControlRequest::Close { session: info.session, proof: Secret::parse(&info.secret).map(|s| s.close_proof(info.session)).unwrap_or_default() }
 }

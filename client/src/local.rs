@@ -171,6 +171,7 @@ impl LocalSession {
     /// Asks the daemon to free the session now (see [`crate::Session::close`]).
     pub(crate) fn close(mut self) -> Result<(), Error> {
         let session = self.info.session;
+        let request = crate::control::close_request(&self.info);
         let open = self.ports.is_some();
         // Ports first: the daemon may free the slot as soon as it answers.
         self.loan = None;
@@ -179,7 +180,7 @@ impl LocalSession {
         if !open {
             return Ok(());
         }
-        crate::control::closed(self.control.request(&ControlRequest::Close { session }, crate::CONTROL_TIMEOUT), session)
+        crate::control::closed(self.control.request(&request, crate::CONTROL_TIMEOUT), session)
     }
 
     fn lose(&mut self) -> Error {

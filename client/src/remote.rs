@@ -4,6 +4,7 @@
 use crate::control::{parse_reply, unexpected, CONTROL_WAIT};
 use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
+use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport};
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
@@ -117,14 +118,21 @@ pub(crate) struct ZenohSession {
     pub(crate) layout: StateLayout,
     pub(crate) frame_no: u64,
     pub(crate) reconnects: u64,
+    /// The session's secret: tags frames, checks replies.
+    secret: Secret,
+    /// Messages on the contacts key without the daemon's tag, dropped.
+    pub(crate) forged: u64,
 }
 
 impl ZenohSession {
     fn new(z: zenoh::Session, endpoint: String, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
         let daemon = z.liveliness().declare_subscriber(DAEMON_ALIVE).history(true).wait().map_err(|e| Error::zenoh("watching the daemon", e))?;
+        let secret = crate::control::secret(&info)?;
         let channels = Channels::declare(&z, &info)?;
         let layout = info.layout();
         Ok(Self {
+            secret,
+            forged: 0,
             z,
             endpoint,
             request,
@@ -176,7 +184,7 @@ impl ZenohSession {
         if self.channels.take().is_none() {
             return Ok(());
         }
-        crate::control::closed(request_on(&self.z, &self.endpoint, &ControlRequest::Close { session }, crate::CONTROL_TIMEOUT), session)
+        crate::control::closed(request_on(&self.z, &self.endpoint, &crate::control::close_request(&self.info), crate::CONTROL_TIMEOUT), session)
     }
 
     fn describe(&self) -> ControlRequest {
@@ -190,6 +198,7 @@ impl ZenohSession {
         if self.channels.is_none() {
             let reply = request_on(&self.z, &self.endpoint, &self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
             let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
+            self.secret = crate::control::secret(&info)?;
             self.channels = Some(Channels::declare(&self.z, &info)?);
             self.layout = info.layout();
             self.state.resize(self.layout.floats, 0.0);
@@ -216,7 +225,9 @@ impl ZenohSession {
         // zenoh owns what it sends: one buffer per frame.
         let mut bytes = Vec::with_capacity(FRAME_HEADER_BYTES + 4 * self.state.len());
         encode_frame(&header, &self.state, &mut bytes);
-        self.channels.as_ref().expect("open").publisher.put(bytes).wait().map_err(|e| Error::zenoh("sending the frame", e))?;
+        // The tag proves the frame is the owner's (the daemon drops frames without it).
+        let tag = self.secret.tag([bytes.as_slice()]);
+        self.channels.as_ref().expect("open").publisher.put(bytes).attachment(tag.to_vec()).wait().map_err(|e| Error::zenoh("sending the frame", e))?;
         self.frame_no += 1;
         Ok(n)
     }
@@ -227,11 +238,14 @@ impl ZenohSession {
     }
 
     pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
-        let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
-        match ch.replies.try_recv() {
-            Ok(Some(s)) => self.accept(s).map(Some),
-            Ok(None) => Ok(None),
-            Err(e) => Err(Error::zenoh("receiving contacts", e)),
+        loop {
+            let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
+            match ch.replies.try_recv() {
+                Ok(Some(s)) if genuine(&self.secret, &mut self.forged, &s) => return self.accept(s).map(Some),
+                Ok(Some(_)) => {}
+                Ok(None) => return Ok(None),
+                Err(e) => return Err(Error::zenoh("receiving contacts", e)),
+            }
         }
     }
 
@@ -241,7 +255,8 @@ impl ZenohSession {
             let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
             let left = deadline.saturating_duration_since(Instant::now());
             match ch.replies.recv_timeout(left.min(lumen_transport::shm::LIVENESS_PERIOD)) {
-                Ok(Some(s)) => return self.accept(s),
+                Ok(Some(s)) if genuine(&self.secret, &mut self.forged, &s) => return self.accept(s),
+                Ok(Some(_)) => {}
                 Ok(None) => {}
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),
             }
@@ -260,8 +275,19 @@ impl ZenohSession {
     }
 
     pub(crate) async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
+        let deadline = tokio::time::Instant::now() + timeout;
         let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
-        match tokio::time::timeout(timeout, ch.replies.recv_async()).await {
+        let (secret, forged) = (&self.secret, &mut self.forged);
+        let next = async {
+            loop {
+                match ch.replies.recv_async().await {
+                    Ok(s) if genuine(secret, forged, &s) => return Ok(s),
+                    Ok(_) => {}
+                    Err(e) => return Err(e),
+                }
+            }
+        };
+        match tokio::time::timeout_at(deadline, next).await {
             Ok(Ok(s)) => self.accept(s),
             Ok(Err(e)) => Err(Error::zenoh("receiving contacts", e)),
             Err(_) => {
@@ -274,6 +300,14 @@ impl ZenohSession {
             }
         }
     }
+}
+
+/// Whether `sample` carries the daemon's tag (the HMAC of its payload under the session's
+/// secret); one without it is counted in `forged` and dropped: anyone can put on the key.
+fn genuine(secret: &Secret, forged: &mut u64, sample: &Sample) -> bool {
+    let ok = sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()));
+    *forged += u64::from(!ok);
+    ok
 }
 
 /// An observer over zenoh: one subscription to the session's frame and contacts keys.

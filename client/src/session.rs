@@ -2,7 +2,7 @@ use crate::local::LocalSession;
 use crate::remote::ZenohSession;
 use crate::view::ContactsView;
 use crate::Error;
-use lumen_proto::session::SessionInfo;
+use lumen_proto::session::{ControlRequest, SessionInfo};
 use lumen_proto::StateLayout;
 use std::time::Duration;
 
@@ -39,6 +39,21 @@ impl Session {
         match &self.inner {
             Inner::Local(s) => &s.info,
             Inner::Zenoh(s) => &s.info,
+        }
+    }
+
+    /// The request that closes this session, with the proof of its secret: what
+    /// [`Session::close`] sends, for a tool that closes it from another connection.
+    pub fn close_request(&self) -> ControlRequest {
+        crate::control::close_request(self.info())
+    }
+
+    /// Zenoh: messages on the session's contacts key dropped because they lacked the daemon's
+    /// tag (forged replies); 0 on iceoryx2.
+    pub fn forged_replies(&self) -> u64 {
+        match &self.inner {
+            Inner::Local(_) => 0,
+            Inner::Zenoh(s) => s.forged,
         }
     }
 

@@ -51,8 +51,14 @@ pub enum ControlRequest {
     },
     /// Describe an open session (for observers): replies [`ControlReply::Described`].
     Describe { session: u64 },
-    /// Close a session now (clients also close by disappearing).
-    Close { session: u64 },
+    /// Close a session now (clients also close by disappearing). Only its owner can:
+    /// `proof` is [`crate::auth::Secret::close_proof`] of the session, the hex HMAC-SHA256 of
+    /// `lumen close <session>` under the secret of the `opened` reply.
+    Close {
+        session: u64,
+        #[serde(default)]
+        proof: String,
+    },
     /// List the sessions: replies [`ControlReply::Status`].
     Status,
 }
@@ -93,6 +99,9 @@ pub enum ErrorCode {
     Busy,
     /// No such session.
     UnknownSession,
+    /// The request needs the session's ownership and did not prove it (a close without the
+    /// right `proof`).
+    NotOwner,
     /// The daemon failed to create the session's channels.
     Internal,
 }
@@ -121,6 +130,11 @@ pub struct SessionInfo {
     pub alive: String,
     /// iceoryx2: most observers (extra subscribers) the session's channels admit.
     pub max_observers: u32,
+    /// The session's secret, 32 lowercase hex digits ([`crate::auth::Secret`]): only in the
+    /// `opened` reply, to the client that opened it (`describe` leaves it out). It keys the
+    /// tags that prove ownership: of a close, and over zenoh of every frame and reply.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub secret: String,
 }
 
 impl SessionInfo {
@@ -152,6 +166,10 @@ pub struct SessionStatus {
     pub bad_frames: u64,
     /// Frames skipped because a newer one had arrived.
     pub skipped: u64,
+    /// Zenoh: messages on the session's frame key that did not prove ownership (no tag, or a
+    /// wrong one): dropped, never answered.
+    #[serde(default)]
+    pub forged: u64,
     /// Frames per second over the last few seconds.
     pub fps: f64,
     /// Detection time of recent frames.
@@ -185,6 +203,10 @@ mod tests {
         let ControlRequest::Open { version, spec, client, echo: false } = r else { panic!("not open: {r:?}") };
         assert_eq!((version, spec.bodies.len(), client.as_str()), (1, 1, "sim"));
         assert_eq!(serde_json::to_string(&ControlRequest::Status).unwrap(), r#"{"op":"status"}"#);
+        let close: ControlRequest = serde_json::from_str(r#"{"op":"close","session":5,"proof":"ab"}"#).unwrap();
+        assert_eq!(close, ControlRequest::Close { session: 5, proof: "ab".into() });
+        // A close without a proof still parses (and is refused as not_owner by the daemon).
+        assert_eq!(serde_json::from_str::<ControlRequest>(r#"{"op":"close","session":5}"#).unwrap(), ControlRequest::Close { session: 5, proof: String::new() });
         let e = ControlReply::Error(ControlError { code: ErrorCode::Limit, message: "too big".into() });
         assert_eq!(serde_json::to_string(&e).unwrap(), r#"{"reply":"error","code":"limit","message":"too big"}"#);
     }

@@ -2,6 +2,7 @@
 
 use crate::error::DaemonError;
 use crate::registry::{Entry, Registry};
+use lumen_proto::auth::{Secret, SECRET_BYTES};
 use lumen_proto::session::{ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
 use lumen_proto::SceneSpec;
@@ -46,10 +47,15 @@ pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest
     match request {
         ControlRequest::Status => ControlReply::Status(registry.status()),
         ControlRequest::Describe { session } => match registry.get(session) {
+            // The stored info holds no secret: what describe tells an observer.
             Some(e) => ControlReply::Described(e.info.clone()),
             None => error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted")),
         },
-        ControlRequest::Close { session } => match registry.get(session) {
+        ControlRequest::Close { session, proof } => match registry.get(session) {
+            Some(e) if !e.secret.verify_close(session, &proof) => {
+                tracing::warn!("refused a close of session {session} without its owner's proof");
+                error(ErrorCode::NotOwner, format!("session {session} is not yours: a close carries the proof of the secret its opened reply gave (proto/README.md, ownership)"))
+            }
             Some(e) => {
                 // Answered once the slot is free (the session's thread ends at its next tick),
                 // so an open right after the answer finds room.
@@ -98,6 +104,9 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions (limits.max_sessions): close one or raise the limit", limits.max_sessions));
     }
     let id = registry.next_id();
+    let Some(secret) = new_secret() else {
+        return error(ErrorCode::Internal, "the operating system gave no random bytes for the session's secret");
+    };
     let info = SessionInfo {
         session: id,
         transport,
@@ -109,17 +118,27 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
         contacts: contacts_name(id),
         alive: if transport == Transport::Zenoh { client_alive_name(id) } else { String::new() },
         max_observers: observers as u32,
+        secret: String::new(),
     };
-    let Some(entry) = registry.insert(info.clone(), scene, client) else {
+    let opened = SessionInfo { secret: secret.to_hex(), ..info.clone() };
+    let Some(entry) = registry.insert(info, secret, scene, client) else {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
     };
     match start(Plan { entry, echo }) {
-        Ok(()) => ControlReply::Opened(info),
+        Ok(()) => ControlReply::Opened(opened),
         Err(e) => {
             registry.remove(id);
             error(ErrorCode::Internal, format!("could not create the session's channels: {e}"))
         }
     }
+}
+
+/// A fresh secret of 128 bits from the operating system's generator (`None` if it fails).
+fn new_secret() -> Option<Secret> {
+    use ring::rand::SecureRandom;
+    let mut bytes = [0u8; SECRET_BYTES];
+    ring::rand::SystemRandom::new().fill(&mut bytes).ok()?;
+    Some(Secret::from_bytes(bytes))
 }
 
 #[cfg(test)]
@@ -170,5 +189,35 @@ mod tests {
         let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Err(DaemonError::Stopped("no shm".into()))) else { panic!() };
         assert_eq!((e.code, reg.len()), (ErrorCode::Internal, 0));
         assert!(matches!(decode(b"{\"op\":\"explode\"}"), Err(ControlReply::Error(ControlError { code: ErrorCode::BadRequest, .. }))));
+    }
+
+    #[test]
+    fn only_the_opener_knows_the_secret_and_only_its_proof_closes() {
+        let reg = Registry::new(Limits::default());
+        let ControlReply::Opened(info) = handle(&reg, Transport::Zenoh, open_req(spec(10)), |_| Ok(())) else { panic!() };
+        let secret = Secret::parse(&info.secret).expect("32 hex digits");
+        let ControlReply::Opened(again) = handle(&reg, Transport::Zenoh, open_req(spec(10)), |_| Ok(())) else { panic!() };
+        assert_ne!(again.secret, info.secret, "each session its own secret");
+        let ControlReply::Described(d) = handle(&reg, Transport::Zenoh, ControlRequest::Describe { session: info.session }, |_| Ok(())) else { panic!() };
+        assert_eq!((d.secret.as_str(), d.session), ("", info.session), "describe tells no secret");
+        assert!(!serde_json::to_string(&ControlReply::Described(d)).unwrap().contains("secret"));
+        let other = Secret::parse(&again.secret).unwrap();
+        for proof in [String::new(), "00".repeat(32), other.close_proof(info.session), secret.close_proof(again.session)] {
+            let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, ControlRequest::Close { session: info.session, proof }, |_| Ok(())) else { panic!() };
+            assert_eq!(e.code, ErrorCode::NotOwner);
+            assert!(reg.get(info.session).is_some(), "a refused close leaves the session open");
+        }
+        // The owner's proof closes it (no session thread here: removed as its thread would).
+        let entry = reg.get(info.session).unwrap();
+        std::thread::scope(|s| {
+            s.spawn(|| {
+                while !entry.close.load(std::sync::atomic::Ordering::SeqCst) {
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                }
+                reg.remove(info.session);
+            });
+            let r = handle(&reg, Transport::Zenoh, ControlRequest::Close { session: info.session, proof: secret.close_proof(info.session) }, |_| Ok(()));
+            assert_eq!(r, ControlReply::Closed { session: info.session });
+        });
     }
 }

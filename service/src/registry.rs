@@ -3,6 +3,7 @@
 use crate::config::Limits;
 use crate::error::DaemonError;
 use crate::stats::Stats;
+use lumen_proto::auth::Secret;
 use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
 use lumen_proto::ValidScene;
 use std::collections::BTreeMap;
@@ -14,7 +15,10 @@ use std::time::{Duration, Instant};
 /// One open session as the registry sees it.
 #[derive(Debug)]
 pub struct Entry {
+    /// What `describe` tells anyone (no secret).
     pub info: SessionInfo,
+    /// The owner's secret: proves closes and, over zenoh, frames; tags replies.
+    pub secret: Secret,
     /// The session's scene, validated once when it opened.
     pub scene: ValidScene,
     pub client: String,
@@ -74,12 +78,12 @@ impl Registry {
     }
 
     /// Adds a session; `None` if the daemon is full.
-    pub fn insert(&self, info: SessionInfo, scene: ValidScene, client: String) -> Option<Arc<Entry>> {
+    pub fn insert(&self, info: SessionInfo, secret: Secret, scene: ValidScene, client: String) -> Option<Arc<Entry>> {
         let mut s = self.sessions.lock().expect("registry lock");
         if s.len() >= self.limits.max_sessions {
             return None;
         }
-        let e = Arc::new(Entry { info, scene, client, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
+        let e = Arc::new(Entry { info, secret, scene, client, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
         s.insert(e.info.session, e.clone());
         Some(e)
     }
@@ -132,6 +136,7 @@ impl Registry {
                     frames: s.frames,
                     bad_frames: s.bad_frames,
                     skipped: s.skipped,
+                    forged: s.forged,
                     fps: s.fps,
                     detect: s.detect.percentiles(),
                     service: s.service.percentiles(),

@@ -6,6 +6,7 @@ use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
 use crate::registry::Registry;
+use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
@@ -121,15 +122,29 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
         match frames.recv_timeout(TICK) {
             Ok(Some(sample)) => {
                 let received = Instant::now();
-                // Anything at all may arrive on the key: decoding checks every length first.
+                // Anyone may put on the key: only the owner's tag makes it a frame of this
+                // session. Anything else is dropped, counted and never answered.
+                if !owned(&plan.entry.secret, &sample) {
+                    let forged = {
+                        let mut st = plan.entry.stats.lock().expect("stats lock");
+                        st.forged += 1;
+                        st.forged
+                    };
+                    if forged.is_power_of_two() {
+                        tracing::warn!("session {}: dropped {forged} message(s) on its frame key without its owner's tag", engine.id);
+                    }
+                    continue;
+                }
+                // The owner may still send anything: decoding checks every length first.
                 let decoded = decode_payload(sample.payload(), engine.id, engine.layout(), &mut state);
                 let (mut reply, contacts) = engine.run(decoded.map(|h| (h, state.as_slice())));
                 // zenoh takes ownership of what it sends: one buffer per reply.
                 let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));
                 encode_contacts(&mut reply, contacts, &mut out);
+                let tag = plan.entry.secret.tag([out.as_slice()]);
                 let service = received.elapsed();
                 let out = ZBytes::from(out);
-                if let Err(e) = publisher.put(out.clone()).wait() {
+                if let Err(e) = publisher.put(out.clone()).attachment(tag.to_vec()).wait() {
                     tracing::warn!("session {}: publishing contacts: {e}", engine.id);
                 }
                 engine.record(&reply, service);
@@ -160,6 +175,12 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             }
         }
     }
+}
+
+/// Whether `sample` carries its owner's tag: the attachment is the HMAC of its payload's bytes.
+fn owned(secret: &Secret, sample: &zenoh::sample::Sample) -> bool {
+    let Some(tag) = sample.attachment() else { return false };
+    secret.verify(sample.payload().slices(), &tag.to_bytes())
 }
 
 /// Decodes a frame straight from zenoh's fragments into `state` (resized to the frame's floats),

@@ -50,6 +50,8 @@ pub struct Stats {
     pub frames: u64,
     pub bad_frames: u64,
     pub skipped: u64,
+    /// Zenoh messages on the frame key without the owner's tag (dropped).
+    pub forged: u64,
     pub contacts_last: u32,
     pub contacts_sum: u64,
     pub detect: Ring,
@@ -61,7 +63,7 @@ pub struct Stats {
 
 impl Default for Stats {
     fn default() -> Self {
-        Self { frames: 0, bad_frames: 0, skipped: 0, contacts_last: 0, contacts_sum: 0, detect: Ring::default(), service: Ring::default(), window: (Instant::now(), 0), fps: 0.0 }
+        Self { frames: 0, bad_frames: 0, skipped: 0, forged: 0, contacts_last: 0, contacts_sum: 0, detect: Ring::default(), service: Ring::default(), window: (Instant::now(), 0), fps: 0.0 }
     }
 }
 

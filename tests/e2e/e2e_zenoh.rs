@@ -5,7 +5,9 @@
 use lumen_client::{Client, Observed};
 use lumen_detect::Detector;
 use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
-use lumen_proto::wire::{encode_frame, FrameHeader, Status, FRAME_HEADER_BYTES};
+use lumen_proto::auth::Secret;
+use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode};
+use lumen_proto::wire::{encode_contacts, encode_frame, ContactsHeader, FrameHeader, Status, FRAME_HEADER_BYTES};
 use std::path::Path;
 use std::time::Duration;
 use zenoh::Wait;
@@ -191,6 +193,7 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
     let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let raw = zenoh::open(lumen_transport::net::config("client", &[], &[d.endpoint()]).unwrap()).wait().unwrap();
     let key = victim.info().frame.clone();
+    let secret = Secret::parse(&victim.info().secret).unwrap();
     let floats = victim.layout().floats;
     let mut rng = fastrand::Rng::with_seed(4);
     let good = scene.state(0);
@@ -228,7 +231,10 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
                 v
             }
         };
-        raw.put(key.clone(), payload).wait().unwrap();
+        // Tagged with the owner's secret: a buggy owner, not a stranger (whose frames are
+        // dropped unanswered: `a_strangers_close_frames_and_replies_all_fail`).
+        let tag = secret.tag([payload.as_slice()]);
+        raw.put(key.clone(), payload).attachment(tag.to_vec()).wait().unwrap();
         let r = victim.contacts(WAIT).expect("every fuzz frame gets a reply");
         let status = r.result().expect_err("no random frame is valid").0;
         *statuses.entry(status).or_insert(0) += 1;
@@ -389,4 +395,78 @@ fn a_closed_sessions_slot_is_free_when_the_close_is_answered() {
         let s = client.open_session(&scene.spec).unwrap_or_else(|e| panic!("cycle {k}: {e}"));
         s.close().unwrap_or_else(|e| panic!("cycle {k}: {e}"));
     }
+}
+
+#[test]
+fn a_strangers_close_frames_and_replies_all_fail() {
+    // The attacks of issue 16 by a second zenoh client that knows the session's id and its keys
+    // (ids are in every frame header) but not the secret of its opened reply.
+    let d = daemon("zstranger");
+    let scene = TestScene::new(30, 8, 16);
+    let owner = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = owner.open_session(&scene.spec).unwrap();
+    let id = s.id();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
+    let stranger = Client::zenoh(&d.endpoint()).unwrap();
+    let raw = zenoh::open(lumen_transport::net::config("client", &[], &[d.endpoint()]).unwrap()).wait().unwrap();
+    let round_trip = |s: &mut lumen_client::Session, k: u64| {
+        let state = scene.state(k);
+        s.submit_state(&state).unwrap();
+        let r = s.contacts(WAIT).unwrap();
+        assert_eq!((r.frame(), r.result()), (k, Ok(())), "the owner's own reply");
+        r.contacts().to_vec()
+    };
+    assert!(same_bits(&round_trip(&mut s, 0), reference.detect(&scene.state(0)).unwrap()));
+    // A close without the proof, or with another secret's, is refused and changes nothing.
+    let wrong = Secret::from_bytes([7; 16]);
+    for proof in [String::new(), wrong.close_proof(id), "x".repeat(64)] {
+        match stranger.request(&ControlRequest::Close { session: id, proof }) {
+            Ok(ControlReply::Error(e)) => assert_eq!(e.code, ErrorCode::NotOwner, "{}", e.message),
+            other => panic!("a stranger's close: {other:?}"),
+        }
+    }
+    // The session's secret is in no describe and no status.
+    match stranger.request(&ControlRequest::Describe { session: id }) {
+        Ok(ControlReply::Described(info)) => assert!(info.secret.is_empty()),
+        other => panic!("{other:?}"),
+    }
+    // Frames on the owner's key: the one that once ended the owner's run (frame 2^62), untagged
+    // and with a wrong tag, and a good frame's bytes tagged under another secret.
+    let floats = s.layout().floats;
+    let mut garbage = Vec::new();
+    encode_frame(&FrameHeader::new(id, 1 << 62, 0, floats, 2), &scene.state(3), &mut garbage);
+    let mut short = Vec::new();
+    encode_frame(&FrameHeader::new(id, 1 << 62, 0, 10, 2), &scene.state(3)[..10], &mut short);
+    let frame_key = s.info().frame.clone();
+    raw.put(frame_key.clone(), garbage.clone()).wait().unwrap();
+    raw.put(frame_key.clone(), short.clone()).attachment(vec![0u8; 32]).wait().unwrap();
+    raw.put(frame_key.clone(), garbage.clone()).attachment(wrong.tag([garbage.as_slice()]).to_vec()).wait().unwrap();
+    // Forged replies on the owner's contacts key: "frame 1, no contacts", untagged and tagged
+    // under another secret, published before the owner's frame 1 is answered.
+    let mut forged = Vec::new();
+    let mut h = ContactsHeader::reply_to(&FrameHeader::new(id, 1, 0, floats, 2));
+    encode_contacts(&mut h, &[], &mut forged);
+    let contacts_key = s.info().contacts.clone();
+    std::thread::sleep(Duration::from_millis(200)); // the stranger's puts reach the daemon first
+    raw.put(contacts_key.clone(), forged.clone()).wait().unwrap();
+    raw.put(contacts_key.clone(), forged.clone()).attachment(wrong.tag([forged.as_slice()]).to_vec()).wait().unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    // The owner is answered, frame by frame, with the daemon's contacts only.
+    let mut total = 0;
+    for k in 1..20 {
+        let got = round_trip(&mut s, k);
+        assert!(same_bits(&got, reference.detect(&scene.state(k)).unwrap()), "frame {k}");
+        total += got.len();
+    }
+    assert!(total > 0, "the scene's contacts are what the forged replies would have hidden");
+    assert_eq!(s.forged_replies(), 2, "the two forged replies were seen and dropped");
+    // The daemon counted the three frames, answered none of them, and the session lives on.
+    let status = || owner.status().ok().and_then(|st| st.sessions.into_iter().find(|x| x.session == id));
+    assert!(lumen_e2e::eventually(WAIT, || status().is_some_and(|x| x.frames == 20)));
+    let st = status().unwrap();
+    assert_eq!((st.frames, st.bad_frames, st.forged), (20, 0, 3));
+    assert!(s.try_contacts().unwrap().is_none(), "nothing answered the stranger's frames");
+    // The owner's own proof, from any connection, closes it.
+    assert_eq!(stranger.request(&s.close_request()).unwrap(), ControlReply::Closed { session: id });
+    assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }

@@ -293,7 +293,8 @@ pub fn spawn_client_role(role_test: &str, envs: &[(&str, &str)]) -> ChildProcess
     ChildProcess::spawn(cmd)
 }
 
-/// Closes `s`'s session twice from `other` (a second client of the same daemon) and checks that
+/// Closes `s`'s session twice from `other` (a second client of the same daemon, with `s`'s
+/// proof) and checks that
 /// `s` says `Disconnected` each time, not a timeout, once from `contacts` and once from
 /// `contacts_async`, and then reopens on its next frame with replies bit for bit equal to
 /// `reference`'s. `s` has been answered already; frames 1 and 2 of `scene` are used.
@@ -301,8 +302,9 @@ pub fn closed_sessions_reopen(s: &mut lumen_client::Session, other: &lumen_clien
     use lumen_client::Error;
     use lumen_proto::session::{ControlReply, ControlRequest};
     const WAIT: Duration = Duration::from_secs(3);
-    let close = |session: u64| {
-        assert!(matches!(other.request(&ControlRequest::Close { session }), Ok(ControlReply::Closed { .. })));
+    // The owner's proof, sent from another connection (a stranger's close is refused).
+    let close = |request: ControlRequest| {
+        assert!(matches!(other.request(&request), Ok(ControlReply::Closed { .. })));
         assert!(eventually(Duration::from_secs(3), || other.status().map(|st| st.sessions.is_empty()).unwrap_or(false)));
     };
     let submit = |s: &mut lumen_client::Session, k: u64| {
@@ -321,12 +323,12 @@ pub fn closed_sessions_reopen(s: &mut lumen_client::Session, other: &lumen_clien
         assert_ne!(s.id(), old);
         assert_eq!(s.reconnects(), reconnects);
     };
-    close(s.id());
+    close(s.close_request());
     submit(s, 1);
     let lost = s.contacts(WAIT).map(|_| ()).unwrap_err();
     assert!(matches!(lost, Error::Disconnected), "{lost:?}");
     reopened(s, 1, 1);
-    close(s.id());
+    close(s.close_request());
     submit(s, 2);
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
     let lost = rt.block_on(async { s.contacts_async(WAIT).await.map(|_| ()) }).unwrap_err();

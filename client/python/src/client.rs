@@ -7,7 +7,6 @@
 use crate::errors;
 use crate::reply::{ObservedFrame, Reply};
 use lumen_client::{LocalOptions, Observed};
-use lumen_proto::session::ControlRequest;
 use numpy::ndarray::ArrayView1;
 use numpy::{PyArray1, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
@@ -326,9 +325,8 @@ impl Session {
         self.retire_frame(py)?;
         self.closed = true;
         let Some(session) = self.inner.as_ref() else { return Ok(()) };
-        let id = session.id();
         // Tell the daemon (errors ignored: a daemon gone has nothing left to free).
-        let _ = self.client.borrow(py).inner.request(&ControlRequest::Close { session: id });
+        let _ = self.client.borrow(py).inner.request(&session.close_request());
         if !self.arrays_alive(py) {
             // No array points into its memory: drop the ports now (iceoryx2 publisher, zenoh
             // token). Otherwise they go when this object does (the arrays keep it alive).

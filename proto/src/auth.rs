@@ -1,0 +1,142 @@
+//! Session ownership: the secret an `opened` reply gives its client alone, and the tags that
+//! prove a message comes from one who knows it.
+//!
+//! A tag is HMAC-SHA256 (RFC 2104) keyed with the secret's 16 bytes. Over zenoh every frame
+//! the client sends and every contacts reply the daemon sends carries the tag of its bytes as
+//! the sample's attachment ([`TAG_BYTES`] bytes), and a close carries the tag of
+//! [`close_message`] in hex. HMAC-SHA256 because every language's standard library has it;
+//! `ring` computes it here (SHA-NI where the CPU has it).
+
+use ring::hmac;
+use subtle::ConstantTimeEq;
+
+/// Bytes of a session secret (128 bits).
+pub const SECRET_BYTES: usize = 16;
+/// Bytes of a tag (a full HMAC-SHA256).
+pub const TAG_BYTES: usize = 32;
+
+/// A session's secret, known to the daemon and the client that opened the session.
+#[derive(Clone)]
+pub struct Secret {
+    bytes: [u8; SECRET_BYTES],
+    key: hmac::Key,
+}
+
+impl std::fmt::Debug for Secret {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Secret(..)") // never printed: a log line must not hand out ownership
+    }
+}
+
+impl PartialEq for Secret {
+    fn eq(&self, other: &Self) -> bool {
+        bool::from(self.bytes.ct_eq(&other.bytes))
+    }
+}
+
+/// Why a secret's text was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("a session secret is {} lowercase hex digits; got {got:?}", 2 * SECRET_BYTES)]
+pub struct BadSecret {
+    pub got: String,
+}
+
+impl Secret {
+    /// The secret of these bytes (the daemon draws them from the OS).
+    pub fn from_bytes(bytes: [u8; SECRET_BYTES]) -> Self {
+        Self { bytes, key: hmac::Key::new(hmac::HMAC_SHA256, &bytes) }
+    }
+
+    /// Parses the 32 hex digits of an `opened` reply's `secret`.
+    pub fn parse(hex: &str) -> Result<Self, BadSecret> {
+        let bad = || BadSecret { got: hex.chars().take(2 * SECRET_BYTES + 8).collect() };
+        if hex.len() != 2 * SECRET_BYTES {
+            return Err(bad());
+        }
+        let mut bytes = [0u8; SECRET_BYTES];
+        for (i, b) in bytes.iter_mut().enumerate() {
+            *b = u8::from_str_radix(hex.get(2 * i..2 * i + 2).ok_or_else(bad)?, 16).map_err(|_| bad())?;
+        }
+        Ok(Self::from_bytes(bytes))
+    }
+
+    /// The 32 lowercase hex digits sent in the `opened` reply.
+    pub fn to_hex(&self) -> String {
+        hex(&self.bytes)
+    }
+
+    /// The tag of a message given in `parts` (in order; zenoh hands payloads over in fragments).
+    pub fn tag<'a>(&self, parts: impl IntoIterator<Item = &'a [u8]>) -> [u8; TAG_BYTES] {
+        let mut ctx = hmac::Context::with_key(&self.key);
+        for p in parts {
+            ctx.update(p);
+        }
+        ctx.sign().as_ref().try_into().expect("HMAC-SHA256 is 32 bytes")
+    }
+
+    /// Whether `tag` is the tag of `parts` (in constant time).
+    pub fn verify<'a>(&self, parts: impl IntoIterator<Item = &'a [u8]>, tag: &[u8]) -> bool {
+        bool::from(self.tag(parts).as_slice().ct_eq(tag))
+    }
+
+    /// The `proof` of a close of `session`: the hex tag of [`close_message`].
+    pub fn close_proof(&self, session: u64) -> String {
+        hex(&self.tag([close_message(session).as_bytes()]))
+    }
+
+    /// Whether `proof` is [`Secret::close_proof`] of `session`.
+    pub fn verify_close(&self, session: u64, proof: &str) -> bool {
+        let expected = self.close_proof(session);
+        bool::from(expected.as_bytes().ct_eq(proof.as_bytes()))
+    }
+}
+
+/// The message a close's proof tags: `lumen close <session>` (the id in decimal).
+pub fn close_message(session: u64) -> String {
+    format!("lumen close {session}")
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tags_are_hmac_sha256_as_other_languages_compute_it() {
+        // The known answer is Python's standard library (what a foreign client would use):
+        // hmac.new(bytes(range(16)), b"lumen close 42", "sha256").hexdigest()
+        let s = Secret::from_bytes(std::array::from_fn(|i| i as u8));
+        assert_eq!(s.to_hex(), "000102030405060708090a0b0c0d0e0f");
+        assert_eq!(s.close_proof(42), "a247be137e05c363a227e770292f9bf699bac1ea2b24a137baae969168da40a8");
+    }
+
+    #[test]
+    fn secrets_parse_their_own_hex_and_nothing_else() {
+        let s = Secret::from_bytes([0xab; 16]);
+        assert_eq!(Secret::parse(&s.to_hex()).unwrap(), s);
+        for bad in ["", "ab", &"g".repeat(32), &"a".repeat(31), &"a".repeat(33), "ééééééééééééééé+"] {
+            assert!(Secret::parse(bad).is_err(), "{bad:?}");
+        }
+        assert_eq!(format!("{s:?}"), "Secret(..)");
+    }
+
+    #[test]
+    fn a_tag_covers_every_byte_and_only_its_secret_makes_it() {
+        let (s, t) = (Secret::from_bytes([1; 16]), Secret::from_bytes([2; 16]));
+        let msg: &[u8] = b"a frame's bytes";
+        let tag = s.tag([msg]);
+        assert!(s.verify([msg], &tag));
+        assert!(s.verify([&msg[..5], &msg[5..]], &tag), "parts are one message");
+        assert!(!t.verify([msg], &tag), "another secret");
+        assert!(!s.verify([&msg[..msg.len() - 1]], &tag), "a byte less");
+        let mut flipped = msg.to_vec();
+        flipped[3] ^= 1;
+        assert!(!s.verify([&flipped[..]], &tag), "a bit flipped");
+        assert!(!s.verify([msg], &tag[..31]), "a short tag");
+        assert!(s.verify_close(7, &s.close_proof(7)) && !s.verify_close(8, &s.close_proof(7)) && !t.verify_close(7, &s.close_proof(7)));
+        assert!(!s.verify_close(7, ""));
+    }
+}
