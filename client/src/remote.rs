@@ -10,8 +10,10 @@ use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHead
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::{client_alive_name, observe_contacts_name, observe_frame_name, CONTROL, DAEMON_ALIVE};
 use lumen_transport::net::{config, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
-use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
+use zenoh::handlers::{Callback, FifoChannelHandler, IntoHandler, RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::{Sample, SampleKind};
@@ -95,9 +97,20 @@ struct Channels {
 }
 
 impl Channels {
-    fn declare(z: &zenoh::Session, info: &SessionInfo) -> Result<Self, Error> {
+    /// Declares the session's keys; replies pass a gate (the daemon's tag under `secret`) before
+    /// the newest-wins queue, so forged ones are counted in `forged` and can never push a
+    /// genuine reply out: anyone can put on the contacts key.
+    fn declare(z: &zenoh::Session, info: &SessionInfo, secret: Secret, forged: Arc<AtomicU64>) -> Result<Self, Error> {
         let token = z.liveliness().declare_token(client_alive_name(info.session)).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
-        let replies = z.declare_subscriber(info.contacts.clone()).with(RingChannel::new(CONTACTS_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
+        let (queue, handler) = RingChannel::new(CONTACTS_QUEUE).into_handler();
+        let gate = Callback::from(move |s: Sample| {
+            if genuine(&secret, &s) {
+                queue.call(s);
+            } else {
+                forged.fetch_add(1, Ordering::Relaxed);
+            }
+        });
+        let replies = z.declare_subscriber(info.contacts.clone()).with((gate, handler)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
         let publisher = z.declare_publisher(info.frame.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| Error::zenoh("declaring the frame publisher", e))?;
         Ok(Self { publisher, replies, _token: token })
     }
@@ -120,19 +133,20 @@ pub(crate) struct ZenohSession {
     pub(crate) reconnects: u64,
     /// The session's secret: tags frames, checks replies.
     secret: Secret,
-    /// Messages on the contacts key without the daemon's tag, dropped.
-    pub(crate) forged: u64,
+    /// Messages on the contacts key without the daemon's tag, dropped (counted by the gate).
+    pub(crate) forged: Arc<AtomicU64>,
 }
 
 impl ZenohSession {
     fn new(z: zenoh::Session, endpoint: String, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
         let daemon = z.liveliness().declare_subscriber(DAEMON_ALIVE).history(true).wait().map_err(|e| Error::zenoh("watching the daemon", e))?;
         let secret = crate::control::secret(&info)?;
-        let channels = Channels::declare(&z, &info)?;
+        let forged = Arc::new(AtomicU64::new(0));
+        let channels = Channels::declare(&z, &info, secret.clone(), forged.clone())?;
         let layout = info.layout();
         Ok(Self {
             secret,
-            forged: 0,
+            forged,
             z,
             endpoint,
             request,
@@ -199,7 +213,7 @@ impl ZenohSession {
             let reply = request_on(&self.z, &self.endpoint, &self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
             let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
             self.secret = crate::control::secret(&info)?;
-            self.channels = Some(Channels::declare(&self.z, &info)?);
+            self.channels = Some(Channels::declare(&self.z, &info, self.secret.clone(), self.forged.clone())?);
             self.layout = info.layout();
             self.state.resize(self.layout.floats, 0.0);
             self.info = info;
@@ -241,8 +255,7 @@ impl ZenohSession {
         loop {
             let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
             match ch.replies.try_recv() {
-                Ok(Some(s)) if genuine(&self.secret, &mut self.forged, &s) => return self.accept(s).map(Some),
-                Ok(Some(_)) => {}
+                Ok(Some(s)) => return self.accept(s).map(Some),
                 Ok(None) => return Ok(None),
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),
             }
@@ -255,8 +268,7 @@ impl ZenohSession {
             let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
             let left = deadline.saturating_duration_since(Instant::now());
             match ch.replies.recv_timeout(left.min(lumen_transport::shm::LIVENESS_PERIOD)) {
-                Ok(Some(s)) if genuine(&self.secret, &mut self.forged, &s) => return self.accept(s),
-                Ok(Some(_)) => {}
+                Ok(Some(s)) => return self.accept(s),
                 Ok(None) => {}
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),
             }
@@ -277,17 +289,7 @@ impl ZenohSession {
     pub(crate) async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
         let deadline = tokio::time::Instant::now() + timeout;
         let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
-        let (secret, forged) = (&self.secret, &mut self.forged);
-        let next = async {
-            loop {
-                match ch.replies.recv_async().await {
-                    Ok(s) if genuine(secret, forged, &s) => return Ok(s),
-                    Ok(_) => {}
-                    Err(e) => return Err(e),
-                }
-            }
-        };
-        match tokio::time::timeout_at(deadline, next).await {
+        match tokio::time::timeout_at(deadline, ch.replies.recv_async()).await {
             Ok(Ok(s)) => self.accept(s),
             Ok(Err(e)) => Err(Error::zenoh("receiving contacts", e)),
             Err(_) => {
@@ -303,11 +305,9 @@ impl ZenohSession {
 }
 
 /// Whether `sample` carries the daemon's tag (the HMAC of its payload under the session's
-/// secret); one without it is counted in `forged` and dropped: anyone can put on the key.
-fn genuine(secret: &Secret, forged: &mut u64, sample: &Sample) -> bool {
-    let ok = sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()));
-    *forged += u64::from(!ok);
-    ok
+/// secret).
+fn genuine(secret: &Secret, sample: &Sample) -> bool {
+    sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()))
 }
 
 /// An observer over zenoh: one subscription to the session's frame and contacts keys.

@@ -53,7 +53,7 @@ impl Session {
     pub fn forged_replies(&self) -> u64 {
         match &self.inner {
             Inner::Local(_) => 0,
-            Inner::Zenoh(s) => s.forged,
+            Inner::Zenoh(s) => s.forged.load(std::sync::atomic::Ordering::Relaxed),
         }
     }
 

@@ -19,8 +19,8 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
 use zenoh::bytes::ZBytes;
-use zenoh::handlers::RingChannel;
-use zenoh::sample::SampleKind;
+use zenoh::handlers::{Callback, IntoHandler, RingChannel};
+use zenoh::sample::{Sample, SampleKind};
 use zenoh::Wait;
 
 use crate::local::{CONNECT_GRACE, TICK};
@@ -105,7 +105,26 @@ fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Resu
 
 fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> {
     let info = plan.entry.info.clone();
-    let frames = z.declare_subscriber(info.frame.clone()).with(RingChannel::new(FRAME_QUEUE)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
+    // Anyone may put on the frame key: only the owner's tag makes a sample a frame of this
+    // session. The gate runs before the newest-wins queue, so a stranger's flood can never push
+    // the owner's frames out; what it drops is counted and never answered.
+    let (queue, handler) = RingChannel::new(FRAME_QUEUE).into_handler();
+    let gate_entry = plan.entry.clone();
+    let gate = Callback::from(move |sample: Sample| {
+        if owned(&gate_entry.secret, &sample) {
+            queue.call(sample);
+        } else {
+            let forged = {
+                let mut st = gate_entry.stats.lock().expect("stats lock");
+                st.forged += 1;
+                st.forged
+            };
+            if forged.is_power_of_two() {
+                tracing::warn!("session {}: dropped {forged} message(s) on its frame key without its owner's tag", gate_entry.info.session);
+            }
+        }
+    });
+    let frames = z.declare_subscriber(info.frame.clone()).with((gate, handler)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
     let publisher = z.declare_publisher(info.contacts.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
     let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
     // Observers get the frames and replies repeated on keys of their own, droppable.
@@ -122,19 +141,6 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
         match frames.recv_timeout(TICK) {
             Ok(Some(sample)) => {
                 let received = Instant::now();
-                // Anyone may put on the key: only the owner's tag makes it a frame of this
-                // session. Anything else is dropped, counted and never answered.
-                if !owned(&plan.entry.secret, &sample) {
-                    let forged = {
-                        let mut st = plan.entry.stats.lock().expect("stats lock");
-                        st.forged += 1;
-                        st.forged
-                    };
-                    if forged.is_power_of_two() {
-                        tracing::warn!("session {}: dropped {forged} message(s) on its frame key without its owner's tag", engine.id);
-                    }
-                    continue;
-                }
                 // The owner may still send anything: decoding checks every length first.
                 let decoded = decode_payload(sample.payload(), engine.id, engine.layout(), &mut state);
                 let (mut reply, contacts) = engine.run(decoded.map(|h| (h, state.as_slice())));
@@ -178,7 +184,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
 }
 
 /// Whether `sample` carries its owner's tag: the attachment is the HMAC of its payload's bytes.
-fn owned(secret: &Secret, sample: &zenoh::sample::Sample) -> bool {
+fn owned(secret: &Secret, sample: &Sample) -> bool {
     let Some(tag) = sample.attachment() else { return false };
     secret.verify(sample.payload().slices(), &tag.to_bytes())
 }

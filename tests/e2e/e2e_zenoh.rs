@@ -421,7 +421,7 @@ fn a_strangers_close_frames_and_replies_all_fail() {
     let wrong = Secret::from_bytes([7; 16]);
     for proof in [String::new(), wrong.close_proof(id), "x".repeat(64)] {
         match stranger.request(&ControlRequest::Close { session: id, proof }) {
-            Ok(ControlReply::Error(e)) => assert_eq!(e.code, ErrorCode::NotOwner, "{}", e.message),
+            Err(lumen_client::Error::Refused(e)) => assert_eq!(e.code, ErrorCode::NotOwner, "{}", e.message),
             other => panic!("a stranger's close: {other:?}"),
         }
     }
@@ -466,6 +466,21 @@ fn a_strangers_close_frames_and_replies_all_fail() {
     let st = status().unwrap();
     assert_eq!((st.frames, st.bad_frames, st.forged), (20, 0, 3));
     assert!(s.try_contacts().unwrap().is_none(), "nothing answered the stranger's frames");
+    // A stranger flooding the frame key while the owner runs cannot push its frames out.
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        scope.spawn(|| {
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                raw.put(frame_key.clone(), garbage.clone()).wait().unwrap();
+            }
+        });
+        for k in 20..60 {
+            let got = round_trip(&mut s, k);
+            assert!(same_bits(&got, reference.detect(&scene.state(k)).unwrap()), "frame {k} under the flood");
+        }
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    });
+    assert!(lumen_e2e::eventually(WAIT, || status().is_some_and(|x| x.frames == 60 && x.forged > 3)));
     // The owner's own proof, from any connection, closes it.
     assert_eq!(stranger.request(&s.close_request()).unwrap(), ControlReply::Closed { session: id });
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
