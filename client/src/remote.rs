@@ -252,13 +252,11 @@ impl ZenohSession {
     }
 
     pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
-        loop {
-            let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
-            match ch.replies.try_recv() {
-                Ok(Some(s)) => return self.accept(s).map(Some),
-                Ok(None) => return Ok(None),
-                Err(e) => return Err(Error::zenoh("receiving contacts", e)),
-            }
+        let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
+        match ch.replies.try_recv() {
+            Ok(Some(s)) => self.accept(s).map(Some),
+            Ok(None) => Ok(None),
+            Err(e) => Err(Error::zenoh("receiving contacts", e)),
         }
     }
 
