@@ -302,7 +302,7 @@ impl ZenohSession {
     }
 }
 
-/// Whether `sample` carries the daemon's tag (the HMAC of its payload under the session's
+/// Whether `sample` carries the daemon's tag (the BLAKE3 keyed hash of its payload under the session's
 /// secret).
 fn genuine(secret: &Secret, sample: &Sample) -> bool {
     sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()))

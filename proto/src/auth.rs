@@ -1,25 +1,24 @@
 //! Session ownership: the secret an `opened` reply gives its client alone, and the tags that
 //! prove a message comes from one who knows it.
 //!
-//! A tag is HMAC-SHA256 (RFC 2104) keyed with the secret's 16 bytes. Over zenoh every frame
-//! the client sends and every contacts reply the daemon sends carries the tag of its bytes as
-//! the sample's attachment ([`TAG_BYTES`] bytes), and a close carries the tag of
-//! [`close_message`] in hex. HMAC-SHA256 because every language's standard library has it;
-//! `ring` computes it here (SHA-NI where the CPU has it).
+//! A tag is BLAKE3's keyed hash (its MAC mode) keyed with the secret's 32 bytes. Over zenoh
+//! every frame the client sends and every contacts reply the daemon sends carries the tag of its
+//! bytes as the sample's attachment ([`TAG_BYTES`] bytes), and a close carries the tag of
+//! [`close_message`] in hex. BLAKE3 rather than HMAC-SHA256 because a colon-sized frame is
+//! 485 KiB and is tagged by the client and checked by the daemon: `docs/measurements.md` has the
+//! measured cost of both.
 
-use ring::hmac;
 use subtle::ConstantTimeEq;
 
-/// Bytes of a session secret (128 bits).
-pub const SECRET_BYTES: usize = 16;
-/// Bytes of a tag (a full HMAC-SHA256).
-pub const TAG_BYTES: usize = 32;
+/// Bytes of a session secret (256 bits: BLAKE3's key).
+pub const SECRET_BYTES: usize = blake3::KEY_LEN;
+/// Bytes of a tag (BLAKE3's default output).
+pub const TAG_BYTES: usize = blake3::OUT_LEN;
 
 /// A session's secret, known to the daemon and the client that opened the session.
 #[derive(Clone)]
 pub struct Secret {
     bytes: [u8; SECRET_BYTES],
-    key: hmac::Key,
 }
 
 impl std::fmt::Debug for Secret {
@@ -44,10 +43,10 @@ pub struct BadSecret {
 impl Secret {
     /// The secret of these bytes (the daemon draws them from the OS).
     pub fn from_bytes(bytes: [u8; SECRET_BYTES]) -> Self {
-        Self { bytes, key: hmac::Key::new(hmac::HMAC_SHA256, &bytes) }
+        Self { bytes }
     }
 
-    /// Parses the 32 hex digits of an `opened` reply's `secret`.
+    /// Parses the 64 hex digits of an `opened` reply's `secret`.
     pub fn parse(hex: &str) -> Result<Self, BadSecret> {
         let bad = || BadSecret { got: hex.chars().take(2 * SECRET_BYTES + 8).collect() };
         if hex.len() != 2 * SECRET_BYTES {
@@ -60,18 +59,18 @@ impl Secret {
         Ok(Self::from_bytes(bytes))
     }
 
-    /// The 32 lowercase hex digits sent in the `opened` reply.
+    /// The 64 lowercase hex digits sent in the `opened` reply.
     pub fn to_hex(&self) -> String {
         hex(&self.bytes)
     }
 
     /// The tag of a message given in `parts` (in order; zenoh hands payloads over in fragments).
     pub fn tag<'a>(&self, parts: impl IntoIterator<Item = &'a [u8]>) -> [u8; TAG_BYTES] {
-        let mut ctx = hmac::Context::with_key(&self.key);
+        let mut hasher = blake3::Hasher::new_keyed(&self.bytes);
         for p in parts {
-            ctx.update(p);
+            hasher.update(p);
         }
-        ctx.sign().as_ref().try_into().expect("HMAC-SHA256 is 32 bytes")
+        *hasher.finalize().as_bytes()
     }
 
     /// Whether `tag` is the tag of `parts` (in constant time).
@@ -105,19 +104,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn tags_are_hmac_sha256_as_other_languages_compute_it() {
-        // The known answer is Python's standard library (what a foreign client would use):
-        // hmac.new(bytes(range(16)), b"lumen close 42", "sha256").hexdigest()
+    fn tags_are_blake3_keyed_hashes_as_its_test_vectors_give_them() {
+        // BLAKE3's own test vectors (test_vectors/test_vectors.json of BLAKE3-team/BLAKE3):
+        // key "whats the Elvish word for friend", inputs of the bytes 0, 1, ..., 250, 0, ...
+        let s = Secret::from_bytes(*b"whats the Elvish word for friend");
+        let input = |n: usize| (0..n).map(|i| (i % 251) as u8).collect::<Vec<u8>>();
+        assert_eq!(hex(&s.tag([input(1).as_slice()])), "6d7878dfff2f485635d39013278ae14f1454b8c0a3a2d34bc1ab38228a80c95b");
+        let long = input(1023);
+        assert_eq!(hex(&s.tag([&long[..100], &long[100..]])), "c951ecdf03288d0fcc96ee3413563d8a6d3589547f2c2fb36d9786470f1b9d6e");
+        // And as Python's `blake3` package (a foreign client) computes a close's proof:
+        // blake3.blake3(b"lumen close 42", key=bytes(range(32))).hexdigest()
         let s = Secret::from_bytes(std::array::from_fn(|i| i as u8));
-        assert_eq!(s.to_hex(), "000102030405060708090a0b0c0d0e0f");
-        assert_eq!(s.close_proof(42), "a247be137e05c363a227e770292f9bf699bac1ea2b24a137baae969168da40a8");
+        assert_eq!(s.to_hex(), "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
+        assert_eq!(s.close_proof(42), "d068aba186ad2d7c468a930a7751b1137b68f842939bfb30dab2135c24835a74");
     }
 
     #[test]
     fn secrets_parse_their_own_hex_and_nothing_else() {
-        let s = Secret::from_bytes([0xab; 16]);
+        let s = Secret::from_bytes([0xab; 32]);
         assert_eq!(Secret::parse(&s.to_hex()).unwrap(), s);
-        for bad in ["", "ab", &"g".repeat(32), &"a".repeat(31), &"a".repeat(33), "ééééééééééééééé+"] {
+        for bad in ["", "ab", &"g".repeat(64), &"a".repeat(63), &"a".repeat(65), &"a".repeat(32), &"é".repeat(32)] {
             assert!(Secret::parse(bad).is_err(), "{bad:?}");
         }
         assert_eq!(format!("{s:?}"), "Secret(..)");
@@ -125,7 +131,7 @@ mod tests {
 
     #[test]
     fn a_tag_covers_every_byte_and_only_its_secret_makes_it() {
-        let (s, t) = (Secret::from_bytes([1; 16]), Secret::from_bytes([2; 16]));
+        let (s, t) = (Secret::from_bytes([1; 32]), Secret::from_bytes([2; 32]));
         let msg: &[u8] = b"a frame's bytes";
         let tag = s.tag([msg]);
         assert!(s.verify([msg], &tag));

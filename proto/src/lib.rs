@@ -5,7 +5,7 @@
 //! - [`state`]: where each body's floats live in the flat per-frame `f32` slice.
 //! - [`valid`]: a scene that passed validation, with its pairs and layout resolved once.
 //! - [`contact`]: the `#[repr(C)]` contact record the pipeline emits.
-//! - [`auth`]: the session secret and the HMAC tags that prove ownership.
+//! - [`auth`]: the session secret and the BLAKE3 tags that prove ownership.
 //! - [`limits`] and [`error`]: bounds on every count and the errors that name what was wrong.
 //!
 //! No I/O happens here.

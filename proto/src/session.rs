@@ -52,7 +52,7 @@ pub enum ControlRequest {
     /// Describe an open session (for observers): replies [`ControlReply::Described`].
     Describe { session: u64 },
     /// Close a session now (clients also close by disappearing). Only its owner can:
-    /// `proof` is [`crate::auth::Secret::close_proof`] of the session, the hex HMAC-SHA256 of
+    /// `proof` is [`crate::auth::Secret::close_proof`] of the session, the hex BLAKE3 keyed hash of
     /// `lumen close <session>` under the secret of the `opened` reply.
     Close {
         session: u64,

@@ -27,3 +27,17 @@ fn hand_written_frame_decodes() {
     let err = decode_frame(&bytes, 8, &layout, &mut state).unwrap_err().1;
     assert_eq!(err.to_string(), "frame names session 7; this is session 8");
 }
+
+#[test]
+fn section_6_worked_example_is_what_the_code_computes() {
+    let doc = include_str!("../README.md");
+    let section = doc.split("## 6.").nth(1).expect("README has a section 6");
+    let blocks: Vec<&str> = section.split("```").skip(1).step_by(2).map(str::trim).collect();
+    let secret = lumen_proto::auth::Secret::parse("000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f").unwrap();
+    assert!(section.contains("`000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f`"));
+    assert_eq!(blocks[0], secret.close_proof(42));
+    let tag: String = secret.tag([readme_hex_frame().as_slice()]).iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(blocks[1], tag);
+    assert!(secret.verify_close(42, blocks[0]));
+    assert!(!secret.verify_close(43, blocks[0]));
+}

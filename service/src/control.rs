@@ -133,7 +133,7 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
     }
 }
 
-/// A fresh secret of 128 bits from the operating system's generator (`None` if it fails).
+/// A fresh secret of 256 bits from the operating system's generator (`None` if it fails).
 fn new_secret() -> Option<Secret> {
     use ring::rand::SecureRandom;
     let mut bytes = [0u8; SECRET_BYTES];
@@ -195,7 +195,7 @@ mod tests {
     fn only_the_opener_knows_the_secret_and_only_its_proof_closes() {
         let reg = Registry::new(Limits::default());
         let ControlReply::Opened(info) = handle(&reg, Transport::Zenoh, open_req(spec(10)), |_| Ok(())) else { panic!() };
-        let secret = Secret::parse(&info.secret).expect("32 hex digits");
+        let secret = Secret::parse(&info.secret).expect("64 hex digits");
         let ControlReply::Opened(again) = handle(&reg, Transport::Zenoh, open_req(spec(10)), |_| Ok(())) else { panic!() };
         assert_ne!(again.secret, info.secret, "each session its own secret");
         let ControlReply::Described(d) = handle(&reg, Transport::Zenoh, ControlRequest::Describe { session: info.session }, |_| Ok(())) else { panic!() };

@@ -183,7 +183,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     }
 }
 
-/// Whether `sample` carries its owner's tag: the attachment is the HMAC of its payload's bytes.
+/// Whether `sample` carries its owner's tag: the attachment is the BLAKE3 keyed hash of its payload's bytes.
 fn owned(secret: &Secret, sample: &Sample) -> bool {
     let Some(tag) = sample.attachment() else { return false };
     secret.verify(sample.payload().slices(), &tag.to_bytes())

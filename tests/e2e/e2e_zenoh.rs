@@ -418,7 +418,7 @@ fn a_strangers_close_frames_and_replies_all_fail() {
     };
     assert!(same_bits(&round_trip(&mut s, 0), reference.detect(&scene.state(0)).unwrap()));
     // A close without the proof, or with another secret's, is refused and changes nothing.
-    let wrong = Secret::from_bytes([7; 16]);
+    let wrong = Secret::from_bytes([7; 32]);
     for proof in [String::new(), wrong.close_proof(id), "x".repeat(64)] {
         match stranger.request(&ControlRequest::Close { session: id, proof }) {
             Err(lumen_client::Error::Refused(e)) => assert_eq!(e.code, ErrorCode::NotOwner, "{}", e.message),
