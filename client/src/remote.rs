@@ -9,11 +9,11 @@ use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo,
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::{client_alive_name, observe_contacts_name, observe_frame_name, CONTROL, DAEMON_ALIVE};
-use lumen_transport::net::{config, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
+use lumen_transport::net::{config, tagged_queue, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use zenoh::handlers::{Callback, FifoChannelHandler, IntoHandler, RingChannel, RingChannelHandler};
+use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::{Sample, SampleKind};
@@ -102,13 +102,8 @@ impl Channels {
     /// genuine reply out: anyone can put on the contacts key.
     fn declare(z: &zenoh::Session, info: &SessionInfo, secret: Secret, forged: Arc<AtomicU64>) -> Result<Self, Error> {
         let token = z.liveliness().declare_token(client_alive_name(info.session)).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
-        let (queue, handler) = RingChannel::new(CONTACTS_QUEUE).into_handler();
-        let gate = Callback::from(move |s: Sample| {
-            if genuine(&secret, &s) {
-                queue.call(s);
-            } else {
-                forged.fetch_add(1, Ordering::Relaxed);
-            }
+        let (gate, handler) = tagged_queue(CONTACTS_QUEUE, secret, move || {
+            forged.fetch_add(1, Ordering::Relaxed);
         });
         let replies = z.declare_subscriber(info.contacts.clone()).with((gate, handler)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
         let publisher = z.declare_publisher(info.frame.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| Error::zenoh("declaring the frame publisher", e))?;
@@ -300,12 +295,6 @@ impl ZenohSession {
             }
         }
     }
-}
-
-/// Whether `sample` carries the daemon's tag (the BLAKE3 keyed hash of its payload under the session's
-/// secret).
-fn genuine(secret: &Secret, sample: &Sample) -> bool {
-    sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()))
 }
 
 /// An observer over zenoh: one subscription to the session's frame and contacts keys.

@@ -6,21 +6,19 @@ use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
 use crate::registry::Registry;
-use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
 use lumen_transport::names::{observe_contacts_name, observe_frame_name};
 use lumen_transport::names::{CONTROL, DAEMON_ALIVE};
-use lumen_transport::net::{config, set, CONGESTION, FRAME_QUEUE, OBSERVER_CONGESTION};
+use lumen_transport::net::{config, set, tagged_queue, CONGESTION, FRAME_QUEUE, OBSERVER_CONGESTION};
 use lumen_transport::TransportError;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
 use zenoh::bytes::ZBytes;
-use zenoh::handlers::{Callback, IntoHandler, RingChannel};
-use zenoh::sample::{Sample, SampleKind};
+use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
 use crate::local::{CONNECT_GRACE, TICK};
@@ -108,20 +106,15 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     // Anyone may put on the frame key: only the owner's tag makes a sample a frame of this
     // session. The gate runs before the newest-wins queue, so a stranger's flood can never push
     // the owner's frames out; what it drops is counted and never answered.
-    let (queue, handler) = RingChannel::new(FRAME_QUEUE).into_handler();
     let gate_entry = plan.entry.clone();
-    let gate = Callback::from(move |sample: Sample| {
-        if owned(&gate_entry.secret, &sample) {
-            queue.call(sample);
-        } else {
-            let forged = {
-                let mut st = gate_entry.stats.lock().expect("stats lock");
-                st.forged += 1;
-                st.forged
-            };
-            if forged.is_power_of_two() {
-                tracing::warn!("session {}: dropped {forged} message(s) on its frame key without its owner's tag", gate_entry.info.session);
-            }
+    let (gate, handler) = tagged_queue(FRAME_QUEUE, plan.entry.secret.clone(), move || {
+        let forged = {
+            let mut st = gate_entry.stats.lock().expect("stats lock");
+            st.forged += 1;
+            st.forged
+        };
+        if forged.is_power_of_two() {
+            tracing::warn!("session {}: dropped {forged} message(s) on its frame key without its owner's tag", gate_entry.info.session);
         }
     });
     let frames = z.declare_subscriber(info.frame.clone()).with((gate, handler)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
@@ -181,12 +174,6 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             }
         }
     }
-}
-
-/// Whether `sample` carries its owner's tag: the attachment is the BLAKE3 keyed hash of its payload's bytes.
-fn owned(secret: &Secret, sample: &Sample) -> bool {
-    let Some(tag) = sample.attachment() else { return false };
-    secret.verify(sample.payload().slices(), &tag.to_bytes())
 }
 
 /// Decodes a frame straight from zenoh's fragments into `state` (resized to the frame's floats),

@@ -1,8 +1,11 @@
-//! zenoh across machines: the configuration both sides start from, and the queue depths and
-//! congestion control of a session's keys.
+//! zenoh across machines: the configuration both sides start from, the queue depths and
+//! congestion control of a session's keys, and the tag gate in front of their queues.
 
 use crate::TransportError;
+use lumen_proto::auth::Secret;
+use zenoh::handlers::{Callback, IntoHandler, RingChannel, RingChannelHandler};
 use zenoh::qos::CongestionControl;
+use zenoh::sample::Sample;
 
 /// Frames the daemon keeps per session before the newest replaces the oldest.
 pub const FRAME_QUEUE: usize = 1;
@@ -33,4 +36,25 @@ pub fn config(mode: &str, listen: &[String], connect: &[String]) -> Result<zenoh
 /// Sets one configuration key of `config` to the JSON5 `value`.
 pub fn set(config: &mut zenoh::Config, key: &str, value: &str) -> Result<(), TransportError> {
     config.insert_json5(key, value).map_err(|e| TransportError::zenoh(format!("config {key} = {value}"), e))
+}
+
+/// A newest-wins queue of `capacity` samples behind a gate that admits only samples whose
+/// attachment is their payload's tag under `secret` (`proto/README.md`, section 6); each other
+/// sample is handed to `on_forged` and dropped. The gate runs before the queue, so samples
+/// anyone may put on a session's key can never push a genuine one out.
+pub fn tagged_queue(capacity: usize, secret: Secret, on_forged: impl Fn() + Send + Sync + 'static) -> (Callback<Sample>, RingChannelHandler<Sample>) {
+    let (queue, handler) = RingChannel::new(capacity).into_handler();
+    let gate = Callback::from(move |sample: Sample| {
+        if carries_tag(&secret, &sample) {
+            queue.call(sample);
+        } else {
+            on_forged();
+        }
+    });
+    (gate, handler)
+}
+
+/// Whether `sample`'s attachment is the tag of its payload's bytes under `secret`.
+pub fn carries_tag(secret: &Secret, sample: &Sample) -> bool {
+    sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()))
 }
