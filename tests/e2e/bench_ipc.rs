@@ -24,8 +24,10 @@ fn a_short_ipc_benchmark_writes_coherent_figures() {
         assert_eq!(f("frames"), if r["mode"] == "4-sessions" { 120.0 } else { 60.0 }, "{r}");
         assert!(0.0 < f("p50_us") && f("p50_us") <= f("p99_us") && f("p99_us") <= f("p999_us"), "{r}");
         assert!(0.0 < f("detect_us") && f("detect_us") <= f("detect_p99_us"), "{r}");
-        // The echo answers the same frames without detecting: faster than a detected round trip.
-        assert!(f("echo_p50_us") < f("p50_us") && f("echo_p50_us") <= f("echo_p99_us"), "{r}");
+        // The echo answers as many frames without detecting (the daemon reports no detection
+        // time on any of its replies); which is faster is a timing, not asserted here.
+        assert!(0.0 < f("echo_p50_us") && f("echo_p50_us") <= f("echo_p99_us"), "{r}");
+        assert_eq!(f("echo_detect_max_us"), 0.0, "{r}");
     }
     // The machine's floor, both ways, across two cores and on one, on as many round trips.
     let wake = json["wake"].as_array().unwrap();

@@ -31,6 +31,8 @@ pub struct IpcRun {
     pub echo_p50_us: f64,
     /// p99 of the bare echo: the transport's and the scheduler's own tail, with no detection.
     pub echo_p99_us: f64,
+    /// Largest detection time the daemon reported on an echo reply: 0, since the echo detects nothing.
+    pub echo_detect_max_us: f64,
     /// Median detection time reported by the daemon.
     pub detect_us: f64,
     /// p99 of the detection time: how much of the round trip's p99 detection alone explains.
@@ -292,6 +294,7 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
         p999_us: quantile_us(&mut det.rtt_ns, 0.999),
         echo_p50_us: quantile_us(&mut echo.rtt_ns, 0.5),
         echo_p99_us: quantile_us(&mut echo.rtt_ns, 0.99),
+        echo_detect_max_us: echo.detect_ns.iter().copied().max().unwrap_or(0) as f64 / 1e3,
         detect_us: quantile_us(&mut det.detect_ns, 0.5),
         detect_p99_us: quantile_us(&mut det.detect_ns, 0.99),
         daemon_p50_us: det.daemon_p50_us.iter().sum::<f64>() / det.daemon_p50_us.len().max(1) as f64,
