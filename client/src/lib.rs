@@ -72,6 +72,20 @@ pub struct Tls {
     pub identity: Option<(PathBuf, PathBuf)>,
 }
 
+/// The subject common name of the first certificate in the PEM file `certificate`: the name a
+/// daemon requiring client certificates knows this client by, and its control key's last chunk.
+fn common_name(certificate: &Path) -> Result<String, Error> {
+    let bad = |why: String| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("client certificate {}: {why}", certificate.display()) };
+    let bytes = std::fs::read(certificate).map_err(|e| bad(e.to_string()))?;
+    let (_, pem) = x509_parser::pem::parse_x509_pem(&bytes).map_err(|e| bad(format!("not a PEM certificate: {e}")))?;
+    let cert = pem.parse_x509().map_err(|e| bad(format!("not an X.509 certificate: {e}")))?;
+    let name = cert.subject().iter_common_name().next().and_then(|cn| cn.as_str().ok()).ok_or_else(|| bad("its subject has no common name".into()))?;
+    if !lumen_transport::names::is_key_chunk(name) {
+        return Err(bad(format!("its common name {name:?} cannot be a zenoh key chunk (no '/', '*', '$', '#', '?')")));
+    }
+    Ok(name.to_owned())
+}
+
 /// Options of a local (iceoryx2) client.
 #[derive(Debug, Clone, Default)]
 pub struct LocalOptions {
@@ -126,7 +140,11 @@ impl Client {
             let value = serde_json::to_string(&file.display().to_string()).expect("a string");
             lumen_transport::net::set(&mut config, &format!("transport/link/tls/{key}"), &value)?;
         }
-        Ok(Self { inner: Inner::Zenoh(remote::ZenohClient::with_config(config, endpoint)?), name: default_name() })
+        let mut client = remote::ZenohClient::with_config(config, endpoint)?;
+        if let Some((certificate, _)) = &tls.identity {
+            client = client.certified_as(&common_name(certificate)?);
+        }
+        Ok(Self { inner: Inner::Zenoh(client), name: default_name() })
     }
 
     /// Sets the name `lumen status` shows for sessions this client opens.

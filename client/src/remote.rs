@@ -22,7 +22,15 @@ use zenoh::Wait;
 /// A client of a daemon reachable over zenoh.
 pub struct ZenohClient {
     session: zenoh::Session,
+    route: Route,
+}
+
+/// Where control requests go: the daemon's endpoint (for messages) and the control key
+/// (`lumen/control`, or `lumen/control/<common name>` with a client certificate).
+#[derive(Debug, Clone)]
+pub(crate) struct Route {
     endpoint: String,
+    control: String,
 }
 
 impl ZenohClient {
@@ -31,21 +39,28 @@ impl ZenohClient {
         Self::with_config(config("client", &[], &[endpoint.to_owned()])?, endpoint)
     }
 
+    /// Sends control requests on `lumen/control/<name>`, as a client whose certificate's common
+    /// name is `name` must when the daemon requires client certificates.
+    pub(crate) fn certified_as(mut self, name: &str) -> Self {
+        self.route.control = lumen_transport::names::control_name_for(name);
+        self
+    }
+
     /// Connects with a full zenoh configuration (TLS, authentication...); `label` names the
     /// daemon in error messages.
     pub fn with_config(config: zenoh::Config, label: &str) -> Result<Self, Error> {
         let session = zenoh::open(config).wait().map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {e}") })?;
-        Ok(Self { session, endpoint: label.to_owned() })
+        Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() } })
     }
 
     /// Sends one control request and waits up to `timeout` for the reply.
     pub fn request(&self, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
-        request_on(&self.session, &self.endpoint, request, timeout)
+        request_on(&self.session, &self.route, request, timeout)
     }
 
     pub(crate) fn open(&self, request: ControlRequest) -> Result<ZenohSession, Error> {
         match self.request(&request, crate::CONTROL_TIMEOUT)? {
-            ControlReply::Opened(info) => ZenohSession::new(self.session.clone(), self.endpoint.clone(), request, info),
+            ControlReply::Opened(info) => ZenohSession::new(self.session.clone(), self.route.clone(), request, info),
             other => Err(unexpected(other)),
         }
     }
@@ -63,17 +78,17 @@ impl ZenohClient {
     }
 }
 
-fn request_on(session: &zenoh::Session, endpoint: &str, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+fn request_on(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
     let json = serde_json::to_vec(request).expect("control requests serialise");
-    let replies = session.get(CONTROL).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
-    read_reply(replies.recv().ok(), endpoint, timeout)
+    let replies = session.get(&route.control).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
+    read_reply(replies.recv().ok(), route, timeout)
 }
 
 /// [`request_on`] for async code.
-async fn request_on_async(session: &zenoh::Session, endpoint: &str, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+async fn request_on_async(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
     let json = serde_json::to_vec(request).expect("control requests serialise");
-    let replies = session.get(CONTROL).payload(json).timeout(timeout).await.map_err(|e| Error::zenoh("sending a control request", e))?;
-    read_reply(replies.recv_async().await.ok(), endpoint, timeout)
+    let replies = session.get(&route.control).payload(json).timeout(timeout).await.map_err(|e| Error::zenoh("sending a control request", e))?;
+    read_reply(replies.recv_async().await.ok(), route, timeout)
 }
 
 /// Whether a control reply says the session asked about does not exist.
@@ -81,9 +96,9 @@ fn unknown_session(reply: Result<ControlReply, Error>) -> bool {
     matches!(reply, Ok(ControlReply::Error(e)) if e.code == ErrorCode::UnknownSession)
 }
 
-fn read_reply(reply: Option<zenoh::query::Reply>, endpoint: &str, timeout: Duration) -> Result<ControlReply, Error> {
+fn read_reply(reply: Option<zenoh::query::Reply>, route: &Route, timeout: Duration) -> Result<ControlReply, Error> {
     let no_daemon = |detail: String| Error::NoDaemon { transport: Transport::Zenoh, detail };
-    let reply = reply.ok_or_else(|| no_daemon(format!("no reply on {CONTROL} at {endpoint} within {timeout:?}")))?;
+    let reply = reply.ok_or_else(|| no_daemon(format!("no reply on {} at {} within {timeout:?}", route.control, route.endpoint)))?;
     match reply.result() {
         Ok(sample) => parse_reply(&sample.payload().to_bytes()),
         Err(e) => Err(no_daemon(format!("error reply: {}", String::from_utf8_lossy(&e.payload().to_bytes())))),
@@ -114,7 +129,7 @@ impl Channels {
 /// A session over zenoh (see [`crate::Session`]).
 pub(crate) struct ZenohSession {
     z: zenoh::Session,
-    endpoint: String,
+    route: Route,
     request: ControlRequest,
     channels: Option<Channels>,
     daemon: Subscriber<FifoChannelHandler<Sample>>,
@@ -133,7 +148,7 @@ pub(crate) struct ZenohSession {
 }
 
 impl ZenohSession {
-    fn new(z: zenoh::Session, endpoint: String, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
+    fn new(z: zenoh::Session, route: Route, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
         let daemon = z.liveliness().declare_subscriber(DAEMON_ALIVE).history(true).wait().map_err(|e| Error::zenoh("watching the daemon", e))?;
         let secret = crate::control::secret(&info)?;
         let forged = Arc::new(AtomicU64::new(0));
@@ -143,7 +158,7 @@ impl ZenohSession {
             secret,
             forged,
             z,
-            endpoint,
+            route,
             request,
             channels: Some(channels),
             daemon,
@@ -179,12 +194,12 @@ impl ZenohSession {
     /// reaches it; its frames then go unanswered. Only a definite "unknown session" counts: a
     /// daemon that does not answer may just be busy, and its token says when it is gone.
     fn session_gone(&self) -> bool {
-        unknown_session(request_on(&self.z, &self.endpoint, &self.describe(), CONTROL_WAIT))
+        unknown_session(request_on(&self.z, &self.route, &self.describe(), CONTROL_WAIT))
     }
 
     /// [`ZenohSession::session_gone`] for async code.
     async fn session_gone_async(&self) -> bool {
-        unknown_session(request_on_async(&self.z, &self.endpoint, &self.describe(), CONTROL_WAIT).await)
+        unknown_session(request_on_async(&self.z, &self.route, &self.describe(), CONTROL_WAIT).await)
     }
 
     /// Asks the daemon to free the session now (see [`crate::Session::close`]).
@@ -193,7 +208,7 @@ impl ZenohSession {
         if self.channels.take().is_none() {
             return Ok(());
         }
-        crate::control::closed(request_on(&self.z, &self.endpoint, &crate::control::close_request(&self.info), crate::CONTROL_TIMEOUT), session)
+        crate::control::closed(request_on(&self.z, &self.route, &crate::control::close_request(&self.info), crate::CONTROL_TIMEOUT), session)
     }
 
     fn describe(&self) -> ControlRequest {
@@ -205,7 +220,7 @@ impl ZenohSession {
             self.channels = None;
         }
         if self.channels.is_none() {
-            let reply = request_on(&self.z, &self.endpoint, &self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
+            let reply = request_on(&self.z, &self.route, &self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
             let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
             self.secret = crate::control::secret(&info)?;
             self.channels = Some(Channels::declare(&self.z, &info, self.secret.clone(), self.forged.clone())?);

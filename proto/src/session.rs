@@ -102,6 +102,10 @@ pub enum ErrorCode {
     /// The request needs the session's ownership and did not prove it (a close without the
     /// right `proof`).
     NotOwner,
+    /// The daemon's access policy does not let this client certificate do this (zenoh with
+    /// client certificates), or the request came on the bare control key where the daemon
+    /// requires the certificate's own (`lumen/control/<common name>`).
+    NotAllowed,
     /// The daemon failed to create the session's channels.
     Internal,
 }

@@ -11,6 +11,15 @@
 //! mode = "router"           # "router" or "peer"
 //! # For tls/ endpoints: the daemon's certificate chain and key (PEM); clients trust its CA.
 //! # tls = { certificate = "server.pem", private_key = "server.key" }
+//! # Mutual TLS: client certificates must be signed by this CA (`client_ca`); then each
+//! # [[zenoh.access]] names a certificate's common name and what it may do (none listed:
+//! # every certificate the CA signed may do everything).
+//! # tls = { certificate = "server.pem", private_key = "server.key", client_ca = "ca.pem" }
+//! # [[zenoh.access]]
+//! # name = "physics-a"      # certificate common name
+//! # open = 2                # sessions at once (0: may not open)
+//! # observe = false         # describe and the observer keys of any session
+//! # status = false          # the status query
 //!
 //! [limits]
 //! max_sessions = 16
@@ -56,8 +65,10 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// `router` (clients in client mode route through the daemon) or `peer`.
     pub mode: String,
-    /// Certificate and key for `tls/` endpoints.
+    /// Certificate and key for `tls/` endpoints, and the CA of client certificates.
     pub tls: Option<TlsFiles>,
+    /// With client certificates: what each certificate (by common name) may do.
+    pub access: Vec<crate::access::Grant>,
 }
 
 /// The daemon's TLS identity: PEM files of its certificate chain and private key. Clients
@@ -68,11 +79,15 @@ pub struct ZenohConfig {
 pub struct TlsFiles {
     pub certificate: std::path::PathBuf,
     pub private_key: std::path::PathBuf,
+    /// CA that signs client certificates: when set, every zenoh client must present one
+    /// (mutual TLS) and `[[zenoh.access]]` applies.
+    #[serde(default)]
+    pub client_ca: Option<std::path::PathBuf>,
 }
 
 impl Default for ZenohConfig {
     fn default() -> Self {
-        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into(), tls: None }
+        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into(), tls: None, access: Vec::new() }
     }
 }
 
@@ -113,6 +128,8 @@ pub enum ConfigError {
     Parse { path: String, source: toml::de::Error },
     #[error("{0}")]
     Invalid(String),
+    #[error("[[zenoh.access]]: {0}")]
+    Policy(#[from] crate::access::PolicyError),
 }
 
 impl ServeConfig {
@@ -133,7 +150,8 @@ impl ServeConfig {
                 return Err(ConfigError::Invalid("a tls/ endpoint needs the daemon's certificate and key ([zenoh] tls = { certificate, private_key }, or --zenoh-tls-cert and --zenoh-tls-key)".into()))
             }
             Some(t) => {
-                for (what, p) in [("certificate", &t.certificate), ("private key", &t.private_key)] {
+                let ca = t.client_ca.iter().map(|p| ("client CA", p));
+                for (what, p) in [("certificate", &t.certificate), ("private key", &t.private_key)].into_iter().chain(ca) {
                     if !p.is_file() {
                         return Err(ConfigError::Invalid(format!("zenoh TLS {what} {}: no such file", p.display())));
                     }
@@ -141,6 +159,10 @@ impl ServeConfig {
             }
             None => {}
         }
+        if !self.zenoh.access.is_empty() && self.zenoh.tls.as_ref().is_none_or(|t| t.client_ca.is_none()) {
+            return Err(ConfigError::Invalid("[[zenoh.access]] names client certificates, but the daemon asks for none: set [zenoh] tls.client_ca (or --zenoh-client-ca)".into()));
+        }
+        self.policy()?;
         if !matches!(self.zenoh.mode.as_str(), "router" | "peer") {
             return Err(ConfigError::Invalid(format!("zenoh mode {:?}: use \"router\" or \"peer\"", self.zenoh.mode)));
         }
@@ -149,6 +171,15 @@ impl ServeConfig {
             return Err(ConfigError::Invalid(format!("limits {l:?}: sessions, contacts and MiB must be > 0, observers at most 64")));
         }
         Ok(())
+    }
+
+    /// The access policy for certified zenoh clients: `None` unless client certificates are
+    /// required.
+    pub fn policy(&self) -> Result<Option<crate::access::Policy>, ConfigError> {
+        match self.zenoh.tls.as_ref().and_then(|t| t.client_ca.as_ref()) {
+            None => Ok(None),
+            Some(_) => Ok(Some(crate::access::Policy::new(self.zenoh.access.clone(), self.limits.max_sessions)?)),
+        }
     }
 }
 

@@ -1,12 +1,13 @@
 //! Control requests, the same on both transports: validate, size, register, describe, report.
 
+use crate::access::Requester;
 use crate::error::DaemonError;
 use crate::registry::{Entry, Registry};
 use lumen_proto::auth::{Secret, SECRET_BYTES};
 use lumen_proto::session::{ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
 use lumen_proto::SceneSpec;
-use lumen_transport::names::{client_alive_name, contacts_name, frame_name};
+use lumen_transport::names::{client_alive_name, contacts_name, frame_name, CONTROL};
 use lumen_transport::shm::ChannelQos;
 use std::sync::Arc;
 
@@ -43,7 +44,15 @@ pub fn decode(bytes: &[u8]) -> Result<ControlRequest, ControlReply> {
 
 /// Handles a request on `transport`; `start` launches an accepted session and says whether it
 /// could (its channels exist when it returns `Ok`).
-pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
+pub fn handle(registry: &Registry, transport: Transport, requester: &Requester, request: ControlRequest, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
+    if let Some(refusal) = refuse(registry, requester, &request) {
+        tracing::warn!("refused a control request: {}", refusal_message(&refusal));
+        return refusal;
+    }
+    let holder = match requester {
+        Requester::Certified(g) => Some(g.name.clone()),
+        _ => None,
+    };
     match request {
         ControlRequest::Status => ControlReply::Status(registry.status()),
         ControlRequest::Describe { session } => match registry.get(session) {
@@ -68,11 +77,42 @@ pub fn handle(registry: &Registry, transport: Transport, request: ControlRequest
             }
             None => error(ErrorCode::UnknownSession, format!("no session {session}")),
         },
-        ControlRequest::Open { version, spec, client, echo } => open(registry, transport, version, spec, client, echo, start),
+        ControlRequest::Open { version, spec, client, echo } => open(registry, transport, version, spec, client, holder, echo, start),
     }
 }
 
-fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec, client: String, echo: bool, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
+/// What the access policy refuses of `request` from `requester` (`None`: allowed). Ours, not
+/// zenoh's ACL: the operation is inside the payload and the session count needs the registry.
+fn refuse(registry: &Registry, requester: &Requester, request: &ControlRequest) -> Option<ControlReply> {
+    let g = match requester {
+        Requester::Anyone => return None,
+        Requester::Unnamed => {
+            return Some(error(ErrorCode::NotAllowed, format!("this daemon requires client certificates: send control requests on {CONTROL}/<your certificate's common name> (proto/README.md, section 6)")))
+        }
+        Requester::Certified(g) => g,
+    };
+    let denied = |what: &str| Some(error(ErrorCode::NotAllowed, format!("certificate {:?} may not {what} ([[zenoh.access]] of the daemon's configuration)", g.name)));
+    match request {
+        ControlRequest::Status if !g.status => denied("query status"),
+        ControlRequest::Describe { .. } if !g.observe => denied("observe (describe) sessions"),
+        ControlRequest::Open { .. } if g.open == 0 => denied("open sessions"),
+        ControlRequest::Open { .. } if registry.held_by(&g.name) >= g.open => Some(error(
+            ErrorCode::Limit,
+            format!("certificate {:?} already holds {} sessions, as many as its access allows (open = {}): close one first", g.name, g.open, g.open),
+        )),
+        _ => None,
+    }
+}
+
+fn refusal_message(reply: &ControlReply) -> &str {
+    match reply {
+        ControlReply::Error(e) => &e.message,
+        _ => "",
+    }
+}
+
+#[allow(clippy::too_many_arguments)] // the request's fields, taken apart once
+fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec, client: String, holder: Option<String>, echo: bool, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }
@@ -121,7 +161,7 @@ fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec
         secret: String::new(),
     };
     let opened = SessionInfo { secret: secret.to_hex(), ..info.clone() };
-    let Some(entry) = registry.insert(info, secret, scene, client) else {
+    let Some(entry) = registry.insert(info, secret, scene, client, holder) else {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
     };
     match start(Plan { entry, echo }) {
@@ -163,30 +203,30 @@ mod tests {
         let reg = Registry::new(Limits { max_sessions: 1, max_session_mib: 64, ..Limits::default() });
         let others = 1 + lumen_proto::limits::MAX_OTHER_WALLS;
         assert_eq!(spec(1250).validate().unwrap().max_contacts(), (159 * 4 + 1) * others);
-        let ControlReply::Opened(info) = handle(&reg, Transport::Iceoryx2, open_req(spec(1250)), |_| Ok(())) else { panic!() };
+        let ControlReply::Opened(info) = handle(&reg, Transport::Iceoryx2, &Requester::Anyone, open_req(spec(1250)), |_| Ok(())) else { panic!() };
         assert_eq!((info.floats, info.max_contacts as usize), (1250 * 33 * 3 + 480, 637 * others));
         // Every interior sample may report up to MAX_OTHER_WALLS more walls, with `nearest` or
         // not: the reply is sized for them, not cut at one per sample.
         let mut nearest = spec(1250);
         nearest.nearest = true;
         let roomy = Registry::new(Limits::default());
-        let ControlReply::Opened(wide) = handle(&roomy, Transport::Iceoryx2, open_req(nearest), |_| Ok(())) else { panic!() };
+        let ControlReply::Opened(wide) = handle(&roomy, Transport::Iceoryx2, &Requester::Anyone, open_req(nearest), |_| Ok(())) else { panic!() };
         assert_eq!(wide.max_contacts as usize, 637 * others);
         assert_eq!(info.frame, format!("lumen/session/{}/frame", info.session));
         // Full: the second is refused as busy, with the limit named.
-        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Ok(())) else { panic!() };
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, &Requester::Anyone, open_req(spec(10)), |_| Ok(())) else { panic!() };
         assert_eq!(e.code, ErrorCode::Busy);
         assert!(e.message.contains("max_sessions"), "{}", e.message);
         reg.remove(info.session);
         // Beyond the memory limit: 65536 rings of 32 spokes is ~26 MB per frame.
-        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(65_536)), |_| Ok(())) else { panic!() };
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, &Requester::Anyone, open_req(spec(65_536)), |_| Ok(())) else { panic!() };
         assert_eq!(e.code, ErrorCode::Limit);
         // Invalid spec: the message names the body.
-        let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, open_req(spec(1)), |_| Ok(())) else { panic!() };
+        let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, &Requester::Anyone, open_req(spec(1)), |_| Ok(())) else { panic!() };
         assert_eq!(e.code, ErrorCode::Spec);
         assert!(e.message.contains("\"colon\""), "{}", e.message);
         // A failing transport leaves nothing registered.
-        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, open_req(spec(10)), |_| Err(DaemonError::Stopped("no shm".into()))) else { panic!() };
+        let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, &Requester::Anyone, open_req(spec(10)), |_| Err(DaemonError::Stopped("no shm".into()))) else { panic!() };
         assert_eq!((e.code, reg.len()), (ErrorCode::Internal, 0));
         assert!(matches!(decode(b"{\"op\":\"explode\"}"), Err(ControlReply::Error(ControlError { code: ErrorCode::BadRequest, .. }))));
     }
@@ -194,16 +234,16 @@ mod tests {
     #[test]
     fn only_the_opener_knows_the_secret_and_only_its_proof_closes() {
         let reg = Registry::new(Limits::default());
-        let ControlReply::Opened(info) = handle(&reg, Transport::Zenoh, open_req(spec(10)), |_| Ok(())) else { panic!() };
+        let ControlReply::Opened(info) = handle(&reg, Transport::Zenoh, &Requester::Anyone, open_req(spec(10)), |_| Ok(())) else { panic!() };
         let secret = Secret::parse(&info.secret).expect("64 hex digits");
-        let ControlReply::Opened(again) = handle(&reg, Transport::Zenoh, open_req(spec(10)), |_| Ok(())) else { panic!() };
+        let ControlReply::Opened(again) = handle(&reg, Transport::Zenoh, &Requester::Anyone, open_req(spec(10)), |_| Ok(())) else { panic!() };
         assert_ne!(again.secret, info.secret, "each session its own secret");
-        let ControlReply::Described(d) = handle(&reg, Transport::Zenoh, ControlRequest::Describe { session: info.session }, |_| Ok(())) else { panic!() };
+        let ControlReply::Described(d) = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Describe { session: info.session }, |_| Ok(())) else { panic!() };
         assert_eq!((d.secret.as_str(), d.session), ("", info.session), "describe tells no secret");
         assert!(!serde_json::to_string(&ControlReply::Described(d)).unwrap().contains("secret"));
         let other = Secret::parse(&again.secret).unwrap();
         for proof in [String::new(), "00".repeat(32), other.close_proof(info.session), secret.close_proof(again.session)] {
-            let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, ControlRequest::Close { session: info.session, proof }, |_| Ok(())) else { panic!() };
+            let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Close { session: info.session, proof }, |_| Ok(())) else { panic!() };
             assert_eq!(e.code, ErrorCode::NotOwner);
             assert!(reg.get(info.session).is_some(), "a refused close leaves the session open");
         }
@@ -216,7 +256,7 @@ mod tests {
                 }
                 reg.remove(info.session);
             });
-            let r = handle(&reg, Transport::Zenoh, ControlRequest::Close { session: info.session, proof: secret.close_proof(info.session) }, |_| Ok(()));
+            let r = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Close { session: info.session, proof: secret.close_proof(info.session) }, |_| Ok(()));
             assert_eq!(r, ControlReply::Closed { session: info.session });
         });
     }

@@ -35,7 +35,8 @@ impl Daemon {
         }
         if self.config.zenoh.enabled() {
             let z = &self.config.zenoh;
-            let remote = Remote { mode: z.mode.clone(), listen: z.listen.clone(), connect: z.connect.clone(), tls: z.tls.clone(), registry: registry.clone() };
+            let policy = self.config.policy()?;
+            let remote = Remote { mode: z.mode.clone(), listen: z.listen.clone(), connect: z.connect.clone(), tls: z.tls.clone(), policy, registry: registry.clone() };
             match remote.start() {
                 Ok(t) => threads.push(t),
                 Err(e) => {

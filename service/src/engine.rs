@@ -129,7 +129,7 @@ mod tests {
         let spec = lumen_scene::frames::spec();
         let req = ControlRequest::Open { version: 1, spec, client: "t".into(), echo: false };
         let mut entry = None;
-        let r = crate::control::handle(&reg, Transport::Iceoryx2, req, |p| {
+        let r = crate::control::handle(&reg, Transport::Iceoryx2, &crate::access::Requester::Anyone, req, |p| {
             entry = Some(p.entry);
             Ok(())
         });

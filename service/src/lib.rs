@@ -4,6 +4,7 @@
 //! a report needs.
 //!
 //! - [`config`]: the TOML configuration and its limits.
+//! - [`access`]: who may do what over zenoh with client certificates (zenoh ACL + our checks).
 //! - [`daemon`]: starts the transports over one [`registry`], stops on SIGINT/SIGTERM.
 //! - [`local`] (iceoryx2) and [`remote`] (zenoh): the transports.
 //! - [`control`]: open / describe / close / status, the same on both.
@@ -11,6 +12,7 @@
 //! - [`stats`]: per-session figures for `lumen status`.
 //! - [`error`]: [`DaemonError`], the one error type of this crate.
 
+pub mod access;
 pub mod config;
 pub mod control;
 pub mod daemon;

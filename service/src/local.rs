@@ -88,7 +88,7 @@ impl Local {
                     }
                 };
                 let reply = match control::decode(request.payload()) {
-                    Ok(req) => control::handle(&self.registry, Transport::Iceoryx2, req, |plan| {
+                    Ok(req) => control::handle(&self.registry, Transport::Iceoryx2, &crate::access::Requester::Anyone, req, |plan| {
                         let (h, r) = start_session(cfg.clone(), plan, self.registry.clone())?;
                         sessions.push(h);
                         r

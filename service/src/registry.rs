@@ -22,6 +22,8 @@ pub struct Entry {
     /// The session's scene, validated once when it opened.
     pub scene: ValidScene,
     pub client: String,
+    /// The common name of the certificate that opened it (zenoh with client certificates).
+    pub holder: Option<String>,
     pub opened: Instant,
     /// Set to ask the session's thread to end.
     pub close: AtomicBool,
@@ -78,12 +80,12 @@ impl Registry {
     }
 
     /// Adds a session; `None` if the daemon is full.
-    pub fn insert(&self, info: SessionInfo, secret: Secret, scene: ValidScene, client: String) -> Option<Arc<Entry>> {
+    pub fn insert(&self, info: SessionInfo, secret: Secret, scene: ValidScene, client: String, holder: Option<String>) -> Option<Arc<Entry>> {
         let mut s = self.sessions.lock().expect("registry lock");
         if s.len() >= self.limits.max_sessions {
             return None;
         }
-        let e = Arc::new(Entry { info, secret, scene, client, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
+        let e = Arc::new(Entry { info, secret, scene, client, holder, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
         s.insert(e.info.session, e.clone());
         Some(e)
     }
@@ -96,6 +98,11 @@ impl Registry {
     /// The session `id`, if open.
     pub fn get(&self, id: u64) -> Option<Arc<Entry>> {
         self.sessions.lock().expect("registry lock").get(&id).cloned()
+    }
+
+    /// Sessions opened with the certificate named `holder`.
+    pub fn held_by(&self, holder: &str) -> usize {
+        self.sessions.lock().expect("registry lock").values().filter(|e| e.holder.as_deref() == Some(holder)).count()
     }
 
     /// Number of open sessions.

@@ -2,6 +2,7 @@
 //! blocks on its frame subscriber (newest frame wins), detects, and publishes the reply. A
 //! session lives while its client's liveliness token does.
 
+use crate::access::{Policy, Requester};
 use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
@@ -29,6 +30,8 @@ pub struct Remote {
     pub listen: Vec<String>,
     pub connect: Vec<String>,
     pub tls: Option<crate::config::TlsFiles>,
+    /// Client certificates required: who may do what (`None`: anyone who reaches the daemon).
+    pub policy: Option<Policy>,
     pub registry: Arc<Registry>,
 }
 
@@ -45,10 +48,19 @@ impl Remote {
                 let value = serde_json::to_string(&path.display().to_string()).expect("a string");
                 set(&mut cfg, &format!("transport/link/tls/{key}"), &value)?;
             }
+            if let Some(ca) = &tls.client_ca {
+                set(&mut cfg, "transport/link/tls/root_ca_certificate", &serde_json::to_string(&ca.display().to_string()).expect("a string"))?;
+                set(&mut cfg, "transport/link/tls/enable_mtls", "true")?;
+            }
+        }
+        if let Some(policy) = &self.policy {
+            set(&mut cfg, "access_control", &policy.acl().to_string())?;
         }
         let z = zenoh::open(cfg).wait().map_err(|e| TransportError::zenoh(format!("opening a session listening on {:?}", self.listen), e))?;
         let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| TransportError::zenoh("declaring the daemon's liveliness token", e))?;
-        let queryable = z.declare_queryable(CONTROL).wait().map_err(|e| TransportError::zenoh(format!("declaring the queryable {CONTROL}"), e))?;
+        // `lumen/control` and, for certified clients, `lumen/control/<common name>`.
+        let keys = format!("{CONTROL}/**");
+        let queryable = z.declare_queryable(&keys).wait().map_err(|e| TransportError::zenoh(format!("declaring the queryable {keys}"), e))?;
         std::thread::Builder::new()
             .name("zenoh-control".into())
             .spawn(move || {
@@ -66,8 +78,9 @@ impl Remote {
                         }
                     };
                     let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
+                    let requester = self.policy.as_ref().map_or(Requester::Anyone, |p| p.requester(query.key_expr().as_str()));
                     let reply = match control::decode(&bytes) {
-                        Ok(req) => control::handle(&self.registry, Transport::Zenoh, req, |plan| {
+                        Ok(req) => control::handle(&self.registry, Transport::Zenoh, &requester, req, |plan| {
                             let (h, r) = start_session(z.clone(), plan, self.registry.clone())?;
                             sessions.push(h);
                             r
@@ -78,7 +91,7 @@ impl Remote {
                         tracing::info!("refused a zenoh control request: {}", e.message);
                     }
                     let json = serde_json::to_vec(&reply).expect("replies serialise");
-                    if let Err(e) = query.reply(CONTROL, json).wait() {
+                    if let Err(e) = query.reply(query.key_expr().clone(), json).wait() {
                         tracing::warn!("zenoh control reply: {e}");
                     }
                 }

@@ -5,6 +5,19 @@
 pub const ROOT: &str = "lumen";
 /// The control channel: iceoryx2 request-response service name and zenoh key expression.
 pub const CONTROL: &str = "lumen/control";
+/// The control key of a zenoh client whose certificate's common name is `name`, when the
+/// daemon requires client certificates: zenoh's access control lets only that certificate
+/// query it, so the key tells the daemon who asks.
+pub fn control_name_for(name: &str) -> String {
+    format!("{CONTROL}/{name}")
+}
+
+/// Whether `s` can stand as one chunk of a zenoh key expression: non-empty, and none of
+/// `/ * $ # ?` (separators, wildcards, the DSL, selector parameters).
+pub fn is_key_chunk(s: &str) -> bool {
+    !s.is_empty() && !s.contains(['/', '*', '$', '#', '?'])
+}
+
 /// Zenoh liveliness token the daemon holds while it runs.
 pub const DAEMON_ALIVE: &str = "lumen/daemon";
 
@@ -47,5 +60,7 @@ mod tests {
         assert_eq!(observe_frame_name(42), "lumen/session/42/observe/frame");
         assert_eq!(observe_contacts_name(42), "lumen/session/42/observe/contacts");
         assert_eq!((CONTROL, DAEMON_ALIVE), ("lumen/control", "lumen/daemon"));
+        assert_eq!(control_name_for("physics-a"), "lumen/control/physics-a");
+        assert!(is_key_chunk("physics-a.lab") && !is_key_chunk("a/b") && !is_key_chunk("") && !is_key_chunk("a*"));
     }
 }

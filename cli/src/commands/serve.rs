@@ -33,6 +33,10 @@ pub struct ServeArgs {
     /// PEM private key of that certificate.
     #[arg(long = "zenoh-tls-key", value_name = "PEM", requires = "zenoh_tls_cert")]
     pub zenoh_tls_key: Option<PathBuf>,
+    /// PEM certificate of the CA that signs client certificates: every zenoh client must then
+    /// present one (mutual TLS); what each may do is the config file's [[zenoh.access]].
+    #[arg(long = "zenoh-client-ca", value_name = "PEM", requires = "zenoh_tls_cert")]
+    pub zenoh_client_ca: Option<PathBuf>,
     /// Most sessions at once.
     #[arg(long)]
     pub max_sessions: Option<usize>,
@@ -61,7 +65,11 @@ impl ServeArgs {
             c.zenoh.connect = self.zenoh_connect.clone();
         }
         if let (Some(certificate), Some(private_key)) = (&self.zenoh_tls_cert, &self.zenoh_tls_key) {
-            c.zenoh.tls = Some(lumen_service::config::TlsFiles { certificate: certificate.clone(), private_key: private_key.clone() });
+            let client_ca = c.zenoh.tls.as_ref().and_then(|t| t.client_ca.clone());
+            c.zenoh.tls = Some(lumen_service::config::TlsFiles { certificate: certificate.clone(), private_key: private_key.clone(), client_ca });
+        }
+        if let (Some(ca), Some(tls)) = (&self.zenoh_client_ca, c.zenoh.tls.as_mut()) {
+            tls.client_ca = Some(ca.clone());
         }
         if let Some(m) = &self.zenoh_mode {
             c.zenoh.mode = m.clone();

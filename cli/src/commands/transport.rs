@@ -3,7 +3,8 @@
 //! subcommand (`lumen status`, `lumen sim`, `lumen record`, `lumen replay`).
 
 use clap::{Args, ValueEnum};
-use lumen_client::{Client, LocalOptions, Transport};
+use lumen_client::{Client, LocalOptions, Tls, Transport};
+use std::path::PathBuf;
 
 /// The zenoh endpoint clients use when none is given (a daemon started with
 /// `--zenoh-listen tcp/0.0.0.0:7447` on this machine).
@@ -39,6 +40,16 @@ pub struct TransportArgs {
     /// zenoh endpoint of the daemon (default tcp/127.0.0.1:7447); implies --transport zenoh.
     #[arg(long = "zenoh", value_name = "ENDPOINT")]
     pub zenoh: Option<String>,
+    /// PEM certificate of the CA that signed the daemon's certificate (for tls/ endpoints).
+    #[arg(long = "zenoh-ca", value_name = "PEM")]
+    pub zenoh_ca: Option<PathBuf>,
+    /// This client's PEM certificate, for a daemon that requires client certificates; its
+    /// common name is what the daemon's access policy knows it by.
+    #[arg(long = "zenoh-cert", value_name = "PEM", requires_all = ["zenoh_key", "zenoh_ca"])]
+    pub zenoh_cert: Option<PathBuf>,
+    /// The private key of --zenoh-cert.
+    #[arg(long = "zenoh-key", value_name = "PEM", requires = "zenoh_cert")]
+    pub zenoh_key: Option<PathBuf>,
 }
 
 impl TransportArgs {
@@ -54,7 +65,17 @@ impl TransportArgs {
     /// A client of the daemon, showing as `name` in `lumen status`.
     pub fn client(&self, name: &str) -> Result<Client, lumen_client::Error> {
         match self.transport() {
-            Transport::Zenoh => Ok(Client::zenoh(self.zenoh.as_deref().unwrap_or(DEFAULT_ZENOH))?.with_name(name)),
+            Transport::Zenoh => {
+                let endpoint = self.zenoh.as_deref().unwrap_or(DEFAULT_ZENOH);
+                let client = match &self.zenoh_ca {
+                    None => Client::zenoh(endpoint)?,
+                    Some(ca) => {
+                        let identity = self.zenoh_cert.clone().zip(self.zenoh_key.clone());
+                        Client::zenoh_with_tls(endpoint, &Tls { root_ca: ca.clone(), identity })?
+                    }
+                };
+                Ok(client.with_name(name))
+            }
             Transport::Iceoryx2 => Client::local_with(LocalOptions { prefix: self.prefix.clone(), name: Some(name.into()) }),
         }
     }
