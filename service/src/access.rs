@@ -98,9 +98,7 @@ impl Policy {
     pub fn acl(&self) -> serde_json::Value {
         let grants = if self.grants.is_empty() { vec![Grant::everything(self.max_sessions)] } else { self.grants.clone() };
         let session = |leaf: &str| format!("{}/session/*/{leaf}", names::ROOT);
-        let rule = |id: String, messages: &[&str], flow: &str, keys: Vec<String>| {
-            json!({ "id": id, "messages": messages, "flows": [flow], "permission": "allow", "key_exprs": keys })
-        };
+        let rule = |id: String, messages: &[&str], flow: &str, keys: Vec<String>| json!({ "id": id, "messages": messages, "flows": [flow], "permission": "allow", "key_exprs": keys });
         // Every certified client: the bare control key (answered with an error naming its own
         // key) and watching the daemon's liveliness.
         let mut rules = vec![

@@ -46,7 +46,6 @@ pub fn decode(bytes: &[u8]) -> Result<ControlRequest, ControlReply> {
 /// could (its channels exist when it returns `Ok`).
 pub fn handle(registry: &Registry, transport: Transport, requester: &Requester, request: ControlRequest, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
     if let Some(refusal) = refuse(registry, requester, &request) {
-        tracing::warn!("refused a control request: {}", refusal_message(&refusal));
         return refusal;
     }
     let holder = match requester {
@@ -87,7 +86,10 @@ fn refuse(registry: &Registry, requester: &Requester, request: &ControlRequest) 
     let g = match requester {
         Requester::Anyone => return None,
         Requester::Unnamed => {
-            return Some(error(ErrorCode::NotAllowed, format!("this daemon requires client certificates: send control requests on {CONTROL}/<your certificate's common name> (proto/README.md, section 6)")))
+            return Some(error(
+                ErrorCode::NotAllowed,
+                format!("this daemon requires client certificates: send control requests on {CONTROL}/<your certificate's common name> (proto/README.md, section 6)"),
+            ))
         }
         Requester::Certified(g) => g,
     };
@@ -96,23 +98,24 @@ fn refuse(registry: &Registry, requester: &Requester, request: &ControlRequest) 
         ControlRequest::Status if !g.status => denied("query status"),
         ControlRequest::Describe { .. } if !g.observe => denied("observe (describe) sessions"),
         ControlRequest::Open { .. } if g.open == 0 => denied("open sessions"),
-        ControlRequest::Open { .. } if registry.held_by(&g.name) >= g.open => Some(error(
-            ErrorCode::Limit,
-            format!("certificate {:?} already holds {} sessions, as many as its access allows (open = {}): close one first", g.name, g.open, g.open),
-        )),
+        ControlRequest::Open { .. } if registry.held_by(&g.name) >= g.open => {
+            Some(error(ErrorCode::Limit, format!("certificate {:?} already holds {} sessions, as many as its access allows (open = {}): close one first", g.name, g.open, g.open)))
+        }
         _ => None,
     }
 }
 
-fn refusal_message(reply: &ControlReply) -> &str {
-    match reply {
-        ControlReply::Error(e) => &e.message,
-        _ => "",
-    }
-}
-
 #[allow(clippy::too_many_arguments)] // the request's fields, taken apart once
-fn open(registry: &Registry, transport: Transport, version: u16, spec: SceneSpec, client: String, holder: Option<String>, echo: bool, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
+fn open(
+    registry: &Registry,
+    transport: Transport,
+    version: u16,
+    spec: SceneSpec,
+    client: String,
+    holder: Option<String>,
+    echo: bool,
+    start: impl FnOnce(Plan) -> Result<(), DaemonError>,
+) -> ControlReply {
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }

@@ -5,6 +5,7 @@
 
 use lumen_client::{Client, Tls};
 use lumen_detect::Detector;
+use lumen_e2e::pki::Pki;
 use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
 use lumen_proto::session::{ControlReply, ErrorCode, StatusReport};
 use std::path::{Path, PathBuf};
@@ -15,47 +16,6 @@ use zenoh::Wait;
 
 const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
 const WAIT: Duration = Duration::from_secs(3);
-
-/// A CA in `dir`, with the daemon's certificate for `localhost`.
-struct Pki {
-    dir: PathBuf,
-    ca: PathBuf,
-    issuer: rcgen::Issuer<'static, rcgen::KeyPair>,
-}
-
-impl Pki {
-    fn new(tag: &str) -> Self {
-        use rcgen::{BasicConstraints, CertificateParams, IsCa, Issuer, KeyPair};
-        let dir = std::env::temp_dir().join(format!("lumen-mtls-{}-{tag}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let key = KeyPair::generate().unwrap();
-        let mut params = CertificateParams::new(Vec::<String>::new()).unwrap();
-        params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
-        let ca = params.self_signed(&key).unwrap();
-        std::fs::write(dir.join("ca.pem"), ca.pem()).unwrap();
-        Self { ca: dir.join("ca.pem"), dir, issuer: Issuer::new(params, key) }
-    }
-
-    /// A certificate with common name `name` (none if empty; `localhost` as its DNS name),
-    /// signed by this CA: (certificate, key) files.
-    fn issue(&self, name: &str, client: bool) -> (PathBuf, PathBuf) {
-        use rcgen::{CertificateParams, DnType, ExtendedKeyUsagePurpose, KeyPair};
-        let key = KeyPair::generate().unwrap();
-        let mut params = CertificateParams::new(vec!["localhost".to_string()]).unwrap();
-        params.distinguished_name = rcgen::DistinguishedName::new();
-        if !name.is_empty() {
-            params.distinguished_name.push(DnType::CommonName, name);
-        }
-        params.extended_key_usages = vec![if client { ExtendedKeyUsagePurpose::ClientAuth } else { ExtendedKeyUsagePurpose::ServerAuth }];
-        let cert = params.signed_by(&key, &self.issuer).unwrap();
-        let file = if name.is_empty() { "unnamed" } else { name };
-        let paths = (self.dir.join(format!("{file}.pem")), self.dir.join(format!("{file}.key")));
-        std::fs::write(&paths.0, cert.pem()).unwrap();
-        std::fs::write(&paths.1, key.serialize_pem()).unwrap();
-        paths
-    }
-}
 
 /// Retries `f` through the transient failures of a fresh TLS link (zenoh-link-tls can drop one:
 /// see `e2e_zenoh::tls_round_trip...`); a refusal is an answer and is returned at once.
@@ -192,15 +152,7 @@ fn with_client_certificates_each_client_does_exactly_what_its_grant_allows() {
     // The command-line clients take the same certificates.
     let status = |who: usize| {
         let (cert, key) = &ids[who];
-        std::process::Command::new(LUMEN)
-            .args(["status", "--zenoh", &endpoint, "--zenoh-ca"])
-            .arg(&pki.ca)
-            .arg("--zenoh-cert")
-            .arg(cert)
-            .arg("--zenoh-key")
-            .arg(key)
-            .output()
-            .unwrap()
+        std::process::Command::new(LUMEN).args(["status", "--zenoh", &endpoint, "--zenoh-ca"]).arg(&pki.ca).arg("--zenoh-cert").arg(cert).arg("--zenoh-key").arg(key).output().unwrap()
     };
     let ok = status(1);
     assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));

@@ -299,22 +299,9 @@ fn zenoh_clients_resume_after_a_daemon_restart() {
 /// A certificate authority and a daemon certificate for `localhost` signed by it, as PEM files
 /// in a fresh folder: (folder, CA, certificate, key).
 fn tls_files(tag: &str) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
-    use rcgen::{BasicConstraints, CertificateParams, IsCa, Issuer, KeyPair};
-    let dir = std::env::temp_dir().join(format!("lumen-tls-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let ca_key = KeyPair::generate().unwrap();
-    let mut ca_params = CertificateParams::new(Vec::<String>::new()).unwrap();
-    ca_params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
-    let ca = ca_params.self_signed(&ca_key).unwrap();
-    let issuer = Issuer::new(ca_params, ca_key);
-    let key = KeyPair::generate().unwrap();
-    let cert = CertificateParams::new(vec!["localhost".to_string()]).unwrap().signed_by(&key, &issuer).unwrap();
-    let paths = (dir.join("ca.pem"), dir.join("server.pem"), dir.join("server.key"));
-    std::fs::write(&paths.0, ca.pem()).unwrap();
-    std::fs::write(&paths.1, cert.pem()).unwrap();
-    std::fs::write(&paths.2, key.serialize_pem()).unwrap();
-    (dir, paths.0, paths.1, paths.2)
+    let pki = lumen_e2e::pki::Pki::new(tag);
+    let (cert, key) = pki.issue("localhost", false);
+    (pki.dir, pki.ca, cert, key)
 }
 
 // zenoh-link-tls 1.10.2 can drop a fresh TLS link (reproduced in 4 of 40 runs of this file with

@@ -14,6 +14,7 @@
 //! - [`browser`]: a CDP driver for headless Chromium (pages, `eval`, screenshots, init scripts).
 
 pub mod browser;
+pub mod pki;
 
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use lumen_proto::{Contact, SceneSpec};
