@@ -24,6 +24,9 @@ pub enum CliError {
     /// The daemon could not run.
     #[error(transparent)]
     Daemon(#[from] lumen_service::DaemonError),
+    /// zenoh, outside a daemon or a client (`lumen router`).
+    #[error(transparent)]
+    Transport(#[from] lumen_transport::TransportError),
     /// Talking to the daemon.
     #[error(transparent)]
     Client(#[from] lumen_client::Error),

@@ -37,7 +37,7 @@ mod view;
 pub use clock::now_ns;
 pub use error::Error;
 pub use lumen_proto as proto;
-pub use lumen_proto::session::{SessionInfo, StatusReport, Transport};
+pub use lumen_proto::session::{DaemonInfo, SessionInfo, StatusReport, Transport};
 pub use observer::{Observed, Observer};
 pub use session::Session;
 pub use view::ContactsView;
@@ -147,6 +147,37 @@ impl Client {
         Ok(Self { inner: Inner::Zenoh(client), name: default_name() })
     }
 
+    /// Opens sessions on the daemon named `daemon` only ([`DaemonInfo::daemon`], `[zenoh] name`
+    /// of its configuration), not on the least loaded daemon of the zenoh network. A local client
+    /// has one daemon and ignores this.
+    pub fn on_daemon(mut self, daemon: &str) -> Self {
+        if let Inner::Zenoh(c) = self.inner {
+            self.inner = Inner::Zenoh(c.on_daemon(daemon));
+        }
+        self
+    }
+
+    /// Every daemon this client reaches, with its name and load: over zenoh each daemon on the
+    /// network (through a router), locally the one.
+    pub fn daemons(&self) -> Result<Vec<DaemonInfo>, Error> {
+        match &self.inner {
+            Inner::Local(_) => match self.request(&ControlRequest::Hello)? {
+                ControlReply::Hello(d) => Ok(vec![d]),
+                other => Err(control::unexpected(other)),
+            },
+            Inner::Zenoh(c) => c.daemons(CONTROL_TIMEOUT),
+        }
+    }
+
+    /// Every daemon's status report, by daemon name (see [`Client::daemons`]); [`Client::status`]
+    /// asks the nearest daemon only.
+    pub fn status_all(&self) -> Result<Vec<StatusReport>, Error> {
+        match &self.inner {
+            Inner::Local(_) => Ok(vec![self.status()?]),
+            Inner::Zenoh(c) => c.status_all(CONTROL_TIMEOUT),
+        }
+    }
+
     /// Sets the name `lumen status` shows for sessions this client opens.
     pub fn with_name(mut self, name: &str) -> Self {
         self.name = name.to_owned();
@@ -190,7 +221,7 @@ impl Client {
         }
     }
 
-    /// What the daemon knows of session `session`.
+    /// What the daemon that serves session `session` knows of it.
     pub fn describe(&self, session: u64) -> Result<SessionInfo, Error> {
         match self.request(&ControlRequest::Describe { session })? {
             ControlReply::Described(info) => Ok(info),
@@ -198,7 +229,8 @@ impl Client {
         }
     }
 
-    /// The daemon's sessions with their frame rates, latencies and contact counts.
+    /// The daemon's sessions with their frame rates, latencies and contact counts (over zenoh
+    /// the nearest daemon's; every daemon's: [`Client::status_all`]).
     pub fn status(&self) -> Result<StatusReport, Error> {
         match self.request(&ControlRequest::Status)? {
             ControlReply::Status(s) => Ok(s),

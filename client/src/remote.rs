@@ -5,10 +5,10 @@ use crate::control::{parse_reply, unexpected, CONTROL_WAIT};
 use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::auth::Secret;
-use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, SessionInfo, Transport};
+use lumen_proto::session::{ControlReply, ControlRequest, DaemonInfo, ErrorCode, SessionInfo, StatusReport, Transport};
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
-use lumen_transport::names::{client_alive_name, observe_contacts_name, observe_frame_name, CONTROL, DAEMON_ALIVE};
+use lumen_transport::names::{daemon_alive_name, observe_contacts_name, observe_frame_name, session_live_name, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER};
 use lumen_transport::net::{config, tagged_queue, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -16,13 +16,16 @@ use std::time::{Duration, Instant};
 use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::query::{ConsolidationMode, QueryTarget};
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Wait;
 
-/// A client of a daemon reachable over zenoh.
+/// A client of the daemons reachable over zenoh (one, or several through a router).
 pub struct ZenohClient {
     session: zenoh::Session,
     route: Route,
+    /// The daemon sessions open on, by name; `None`: the least loaded at each open.
+    daemon: Option<String>,
 }
 
 /// Where control requests go: the daemon's endpoint (for messages) and the control key
@@ -50,17 +53,51 @@ impl ZenohClient {
     /// daemon in error messages.
     pub fn with_config(config: zenoh::Config, label: &str) -> Result<Self, Error> {
         let session = zenoh::open(config).wait().map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {e}") })?;
-        Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() } })
+        Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() }, daemon: None })
     }
 
-    /// Sends one control request and waits up to `timeout` for the reply.
+    /// Opens sessions on the daemon named `name` only (see [`DaemonInfo::daemon`]), not on the
+    /// least loaded one.
+    pub(crate) fn on_daemon(mut self, name: &str) -> Self {
+        self.daemon = Some(name.to_owned());
+        self
+    }
+
+    /// Sends one control request and waits up to `timeout` for the reply: a `describe` or a
+    /// `close` from the daemon that has the session, anything else from the nearest daemon.
     pub fn request(&self, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
-        request_on(&self.session, &self.route, request, timeout)
+        match request {
+            ControlRequest::Describe { .. } | ControlRequest::Close { .. } => about_a_session(&self.session, &self.route, request, timeout),
+            _ => request_on(&self.session, &self.route, request, None, timeout),
+        }
+    }
+
+    /// Every daemon's name and load (each daemon on the network answers).
+    pub fn daemons(&self, timeout: Duration) -> Result<Vec<DaemonInfo>, Error> {
+        let all = request_all(&self.session, &self.route, &ControlRequest::Hello, timeout)?;
+        Ok(all.into_iter().filter_map(|r| if let ControlReply::Hello(d) = r { Some(d) } else { None }).collect())
+    }
+
+    /// Every daemon's status report (each daemon on the network answers).
+    pub fn status_all(&self, timeout: Duration) -> Result<Vec<StatusReport>, Error> {
+        let mut reports = Vec::new();
+        for reply in request_all(&self.session, &self.route, &ControlRequest::Status, timeout)? {
+            match reply {
+                ControlReply::Status(s) => reports.push(s),
+                other => return Err(unexpected(other)),
+            }
+        }
+        reports.sort_by(|a, b| a.daemon.cmp(&b.daemon));
+        Ok(reports)
     }
 
     pub(crate) fn open(&self, request: ControlRequest) -> Result<ZenohSession, Error> {
-        match self.request(&request, crate::CONTROL_TIMEOUT)? {
-            ControlReply::Opened(info) => ZenohSession::new(self.session.clone(), self.route.clone(), request, info),
+        let daemon = match &self.daemon {
+            Some(name) => Some(name.clone()),
+            None => least_loaded(&self.session, &self.route, crate::CONTROL_TIMEOUT)?,
+        };
+        match request_on(&self.session, &self.route, &request, daemon.as_deref(), crate::CONTROL_TIMEOUT)? {
+            ControlReply::Opened(info) => ZenohSession::new(self.session.clone(), self.route.clone(), self.daemon.clone(), request, info),
             other => Err(unexpected(other)),
         }
     }
@@ -70,25 +107,80 @@ impl ZenohClient {
         // own keys: a slow observer then loses samples instead of slowing the session.
         let both = format!("{}/*", observe_frame_name(info.session).rsplit_once('/').expect("a key with a root").0);
         let sub = self.session.declare_subscriber(both).with(RingChannel::new(OBSERVER_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
-        // The session lives while its client's liveliness token and the daemon's do.
+        // The session lives while the daemon's token for it and the daemon's own do.
         let watch = |key: &str| self.session.liveliness().declare_subscriber(key).wait().map_err(|e| Error::zenoh(&format!("watching {key}"), e));
-        let ended = [watch(&info.alive)?, watch(DAEMON_ALIVE)?];
+        let ended = [watch(&session_live_name(info.session))?, watch(&daemon_key(&info))?];
         let (frame_key, contacts_key) = (observe_frame_name(info.session), observe_contacts_name(info.session));
         Ok(ZenohObserver { sub, ended, info, frame_key, contacts_key, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
     }
 }
 
-fn request_on(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+/// The liveliness key of the daemon that serves the session of `info` (any daemon's, for a
+/// daemon that gives no name).
+fn daemon_key(info: &SessionInfo) -> String {
+    if info.daemon.is_empty() {
+        DAEMONS_ALIVE.to_owned()
+    } else {
+        daemon_alive_name(&info.daemon)
+    }
+}
+
+/// The selector and query target of a control request for `daemon`: named, every daemon gets
+/// it and only that one answers; unnamed, zenoh routes it to the nearest daemon alone (the
+/// daemons' control queryables are complete).
+fn selector(route: &Route, daemon: Option<&str>) -> (String, QueryTarget) {
+    match daemon {
+        Some(name) => (format!("{}?{DAEMON_PARAMETER}={name}", route.control), QueryTarget::All),
+        None => (route.control.clone(), QueryTarget::BestMatching),
+    }
+}
+
+fn request_on(session: &zenoh::Session, route: &Route, request: &ControlRequest, daemon: Option<&str>, timeout: Duration) -> Result<ControlReply, Error> {
     let json = serde_json::to_vec(request).expect("control requests serialise");
-    let replies = session.get(&route.control).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
+    let (key, target) = selector(route, daemon);
+    let replies = session.get(&key).target(target).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
     read_reply(replies.recv().ok(), route, timeout)
 }
 
 /// [`request_on`] for async code.
-async fn request_on_async(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+async fn request_on_async(session: &zenoh::Session, route: &Route, request: &ControlRequest, daemon: Option<&str>, timeout: Duration) -> Result<ControlReply, Error> {
     let json = serde_json::to_vec(request).expect("control requests serialise");
-    let replies = session.get(&route.control).payload(json).timeout(timeout).await.map_err(|e| Error::zenoh("sending a control request", e))?;
+    let (key, target) = selector(route, daemon);
+    let replies = session.get(&key).target(target).payload(json).timeout(timeout).await.map_err(|e| Error::zenoh("sending a control request", e))?;
     read_reply(replies.recv_async().await.ok(), route, timeout)
+}
+
+/// Sends `request` to every daemon and returns every reply that came within `timeout` (the
+/// query ends as soon as each daemon has answered).
+fn request_all(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<Vec<ControlReply>, Error> {
+    let json = serde_json::to_vec(request).expect("control requests serialise");
+    // No consolidation: every daemon replies on the same key, and zenoh's default keeps one.
+    let replies =
+        session.get(&route.control).target(QueryTarget::All).consolidation(ConsolidationMode::None).payload(json).timeout(timeout).wait().map_err(|e| Error::zenoh("sending a control request", e))?;
+    let mut all = Vec::new();
+    while let Ok(r) = replies.recv() {
+        all.push(read_reply(Some(r), route, timeout)?);
+    }
+    if all.is_empty() {
+        return Err(Error::NoDaemon { transport: Transport::Zenoh, detail: format!("no reply on {} at {} within {timeout:?}", route.control, route.endpoint) });
+    }
+    Ok(all)
+}
+
+/// A request about one session asked of every daemon: the reply of the one that has the
+/// session, else the first (an unknown session).
+fn about_a_session(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
+    let mut all = request_all(session, route, request, timeout)?;
+    let found = all.iter().position(|r| !matches!(r, ControlReply::Error(e) if e.code == ErrorCode::UnknownSession)).unwrap_or(0);
+    Ok(all.swap_remove(found))
+}
+
+/// The name of the daemon with the most free session slots (then the fewest sessions, then
+/// the first name), or `None` where no daemon gives its name (one that predates names: the
+/// open then goes to the nearest daemon).
+fn least_loaded(session: &zenoh::Session, route: &Route, timeout: Duration) -> Result<Option<String>, Error> {
+    let daemons: Vec<DaemonInfo> = request_all(session, route, &ControlRequest::Hello, timeout)?.into_iter().filter_map(|r| if let ControlReply::Hello(d) = r { Some(d) } else { None }).collect();
+    Ok(daemons.into_iter().min_by_key(|d| (std::cmp::Reverse(d.max_sessions.saturating_sub(d.sessions)), d.sessions, d.daemon.clone())).map(|d| d.daemon))
 }
 
 /// Whether a control reply says the session asked about does not exist.
@@ -105,6 +197,11 @@ fn read_reply(reply: Option<zenoh::query::Reply>, route: &Route, timeout: Durati
     }
 }
 
+/// Watches the liveliness of the daemon that serves the session of `info`.
+fn watch_daemon(z: &zenoh::Session, info: &SessionInfo) -> Result<Subscriber<FifoChannelHandler<Sample>>, Error> {
+    z.liveliness().declare_subscriber(daemon_key(info)).history(true).wait().map_err(|e| Error::zenoh("watching the daemon", e))
+}
+
 struct Channels {
     publisher: Publisher<'static>,
     replies: Subscriber<RingChannelHandler<Sample>>,
@@ -116,7 +213,8 @@ impl Channels {
     /// the newest-wins queue, so forged ones are counted in `forged` and can never push a
     /// genuine reply out: anyone can put on the contacts key.
     fn declare(z: &zenoh::Session, info: &SessionInfo, secret: Secret, forged: Arc<AtomicU64>) -> Result<Self, Error> {
-        let token = z.liveliness().declare_token(client_alive_name(info.session)).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
+        // The key the opened reply named (its last chunk comes from the secret).
+        let token = z.liveliness().declare_token(info.alive.clone()).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
         let (gate, handler) = tagged_queue(CONTACTS_QUEUE, secret, move || {
             forged.fetch_add(1, Ordering::Relaxed);
         });
@@ -130,6 +228,8 @@ impl Channels {
 pub(crate) struct ZenohSession {
     z: zenoh::Session,
     route: Route,
+    /// The daemon the user chose (`None`: the least loaded, chosen again at each reopen).
+    pinned: Option<String>,
     request: ControlRequest,
     channels: Option<Channels>,
     daemon: Subscriber<FifoChannelHandler<Sample>>,
@@ -148,8 +248,8 @@ pub(crate) struct ZenohSession {
 }
 
 impl ZenohSession {
-    fn new(z: zenoh::Session, route: Route, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
-        let daemon = z.liveliness().declare_subscriber(DAEMON_ALIVE).history(true).wait().map_err(|e| Error::zenoh("watching the daemon", e))?;
+    fn new(z: zenoh::Session, route: Route, pinned: Option<String>, request: ControlRequest, info: SessionInfo) -> Result<Self, Error> {
+        let daemon = watch_daemon(&z, &info)?;
         let secret = crate::control::secret(&info)?;
         let forged = Arc::new(AtomicU64::new(0));
         let channels = Channels::declare(&z, &info, secret.clone(), forged.clone())?;
@@ -159,6 +259,7 @@ impl ZenohSession {
             forged,
             z,
             route,
+            pinned,
             request,
             channels: Some(channels),
             daemon,
@@ -194,12 +295,17 @@ impl ZenohSession {
     /// reaches it; its frames then go unanswered. Only a definite "unknown session" counts: a
     /// daemon that does not answer may just be busy, and its token says when it is gone.
     fn session_gone(&self) -> bool {
-        unknown_session(request_on(&self.z, &self.route, &self.describe(), CONTROL_WAIT))
+        unknown_session(request_on(&self.z, &self.route, &self.describe(), self.daemon_name(), CONTROL_WAIT))
+    }
+
+    /// The name of the daemon that serves the session (`None` for one that gives no name).
+    fn daemon_name(&self) -> Option<&str> {
+        Some(self.info.daemon.as_str()).filter(|n| !n.is_empty())
     }
 
     /// [`ZenohSession::session_gone`] for async code.
     async fn session_gone_async(&self) -> bool {
-        unknown_session(request_on_async(&self.z, &self.route, &self.describe(), CONTROL_WAIT).await)
+        unknown_session(request_on_async(&self.z, &self.route, &self.describe(), self.daemon_name(), CONTROL_WAIT).await)
     }
 
     /// Asks the daemon to free the session now (see [`crate::Session::close`]).
@@ -208,7 +314,7 @@ impl ZenohSession {
         if self.channels.take().is_none() {
             return Ok(());
         }
-        crate::control::closed(request_on(&self.z, &self.route, &crate::control::close_request(&self.info), crate::CONTROL_TIMEOUT), session)
+        crate::control::closed(request_on(&self.z, &self.route, &crate::control::close_request(&self.info), self.daemon_name(), crate::CONTROL_TIMEOUT), session)
     }
 
     fn describe(&self) -> ControlRequest {
@@ -220,8 +326,16 @@ impl ZenohSession {
             self.channels = None;
         }
         if self.channels.is_none() {
-            let reply = request_on(&self.z, &self.route, &self.request, CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
+            // On the chosen daemon, or on the least loaded of those still there.
+            let daemon = match &self.pinned {
+                Some(name) => Some(name.clone()),
+                None => least_loaded(&self.z, &self.route, CONTROL_WAIT).map_err(|_| Error::Disconnected)?,
+            };
+            let reply = request_on(&self.z, &self.route, &self.request, daemon.as_deref(), CONTROL_WAIT).map_err(|_| Error::Disconnected)?;
             let ControlReply::Opened(info) = reply else { return Err(Error::Disconnected) };
+            if info.daemon != self.info.daemon {
+                self.daemon = watch_daemon(&self.z, &info)?;
+            }
             self.secret = crate::control::secret(&info)?;
             self.channels = Some(Channels::declare(&self.z, &info, self.secret.clone(), self.forged.clone())?);
             self.layout = info.layout();
@@ -315,7 +429,8 @@ impl ZenohSession {
 /// An observer over zenoh: one subscription to the session's frame and contacts keys.
 pub(crate) struct ZenohObserver {
     sub: Subscriber<RingChannelHandler<Sample>>,
-    /// Liveliness of the session's client and of the daemon: a `Delete` ends the session.
+    /// Liveliness of the daemon's token for the session and of the daemon: a `Delete` ends the
+    /// session.
     ended: [Subscriber<FifoChannelHandler<Sample>>; 2],
     pub(crate) info: SessionInfo,
     /// The keys the daemon repeats the session's frames and replies on for observers.

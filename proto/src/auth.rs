@@ -83,6 +83,13 @@ impl Secret {
         hex(&self.tag([close_message(session).as_bytes()]))
     }
 
+    /// The last chunk of session `session`'s client liveliness key over zenoh: the first 16
+    /// bytes of the tag of [`alive_message`] as 32 lowercase hex digits. Only the opener can
+    /// name the key, so no one else can hold a token that keeps a dead client's session alive.
+    pub fn alive_chunk(&self, session: u64) -> String {
+        hex(&self.tag([alive_message(session).as_bytes()])[..16])
+    }
+
     /// Whether `proof` is [`Secret::close_proof`] of `session`.
     pub fn verify_close(&self, session: u64, proof: &str) -> bool {
         let expected = self.close_proof(session);
@@ -93,6 +100,11 @@ impl Secret {
 /// The message a close's proof tags: `lumen close <session>` (the id in decimal).
 pub fn close_message(session: u64) -> String {
     format!("lumen close {session}")
+}
+
+/// The message whose tag names a zenoh session's liveliness key: `lumen alive <session>`.
+pub fn alive_message(session: u64) -> String {
+    format!("lumen alive {session}")
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -117,6 +129,8 @@ mod tests {
         let s = Secret::from_bytes(std::array::from_fn(|i| i as u8));
         assert_eq!(s.to_hex(), "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
         assert_eq!(s.close_proof(42), "d068aba186ad2d7c468a930a7751b1137b68f842939bfb30dab2135c24835a74");
+        // blake3.blake3(b"lumen alive 42", key=bytes(range(32))).hexdigest()[:32]
+        assert_eq!(s.alive_chunk(42), "732caea5f9833e0b2c42100effe25326");
     }
 
     #[test]

@@ -61,6 +61,9 @@ pub enum ControlRequest {
     },
     /// List the sessions: replies [`ControlReply::Status`].
     Status,
+    /// Who serves here: replies [`ControlReply::Hello`] with the daemon's name and load. Over
+    /// zenoh a client asks every daemon at once (query target all) and opens on the least loaded.
+    Hello,
 }
 
 /// The reply to a [`ControlRequest`].
@@ -71,7 +74,22 @@ pub enum ControlReply {
     Described(SessionInfo),
     Closed { session: u64 },
     Status(StatusReport),
+    Hello(DaemonInfo),
     Error(ControlError),
+}
+
+/// One daemon, as [`ControlRequest::Hello`] answers.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DaemonInfo {
+    /// The daemon's name on the zenoh network (one key chunk): the `daemon` selector parameter
+    /// of a control request picks it (`proto/README.md`, section 1).
+    pub daemon: String,
+    pub pid: u32,
+    /// Sessions it serves now (both transports).
+    pub sessions: u32,
+    /// Sessions it serves at most (`limits.max_sessions`).
+    pub max_sessions: u32,
 }
 
 /// Why a control request failed.
@@ -116,6 +134,10 @@ pub enum ErrorCode {
 pub struct SessionInfo {
     /// Session id: goes in every frame header.
     pub session: u64,
+    /// Name of the daemon that serves the session: control requests about it go to that daemon
+    /// (over zenoh, the selector parameter `daemon=<name>`).
+    #[serde(default)]
+    pub daemon: String,
     pub transport: Transport,
     /// The scene this session detects.
     pub spec: SceneSpec,
@@ -129,8 +151,9 @@ pub struct SessionInfo {
     pub frame: String,
     /// Contacts channel name (`lumen/session/<id>/contacts`).
     pub contacts: String,
-    /// Zenoh: liveliness key the client must declare (`lumen/session/<id>/client`); the session
-    /// is freed when it goes away. iceoryx2: empty (the client's frame publisher is its life).
+    /// Zenoh: liveliness key the client must declare (`lumen/session/<id>/client/<32 hex>`,
+    /// named by the secret), only in the `opened` reply; the session is freed when it goes
+    /// away. iceoryx2, and `describe`: empty (over iceoryx2 the frame publisher is its life).
     pub alive: String,
     /// iceoryx2: most observers (extra subscribers) the session's channels admit.
     pub max_observers: u32,
@@ -189,6 +212,9 @@ pub struct SessionStatus {
 /// The daemon's answer to [`ControlRequest::Status`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StatusReport {
+    /// The daemon's name ([`DaemonInfo::daemon`]).
+    #[serde(default)]
+    pub daemon: String,
     pub pid: u32,
     pub version: String,
     pub uptime_s: f64,

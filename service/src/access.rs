@@ -11,7 +11,7 @@
 //! or need a count, which an ACL rule cannot express: the operation a control request asks for,
 //! and the number of sessions a certificate holds.
 
-use lumen_transport::names::{self, CONTROL, DAEMON_ALIVE};
+use lumen_transport::names::{self, CONTROL, DAEMONS_ALIVE};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
@@ -104,20 +104,20 @@ impl Policy {
         let mut rules = vec![
             rule("control-bare-in".into(), &["query"], "ingress", vec![CONTROL.into()]),
             rule("control-bare-out".into(), &["reply", "declare_queryable"], "egress", vec![CONTROL.into()]),
-            rule("daemon-watch-in".into(), &["declare_liveliness_subscriber", "liveliness_query"], "ingress", vec![DAEMON_ALIVE.into()]),
-            rule("daemon-watch-out".into(), &["liveliness_token", "reply"], "egress", vec![DAEMON_ALIVE.into()]),
+            rule("daemon-watch-in".into(), &["declare_liveliness_subscriber", "liveliness_query"], "ingress", vec![DAEMONS_ALIVE.into()]),
+            rule("daemon-watch-out".into(), &["liveliness_token", "reply"], "egress", vec![DAEMONS_ALIVE.into()]),
             // Opening: frames in, replies out, the client's liveliness token in.
             rule("open-in".into(), &["put"], "ingress", vec![session("frame")]),
             rule("open-sub".into(), &["declare_subscriber"], "ingress", vec![session("contacts")]),
-            rule("open-token".into(), &["liveliness_token"], "ingress", vec![session("client")]),
+            rule("open-token".into(), &["liveliness_token"], "ingress", vec![session("client/*")]),
             rule("open-out".into(), &["put"], "egress", vec![session("contacts")]),
             // The daemon's frame subscriber, announced so the client's publisher sends to it.
             rule("open-decl-out".into(), &["declare_subscriber"], "egress", vec![session("frame")]),
-            // Observing: the observer keys out, watching the client's liveliness.
+            // Observing: the observer keys out, watching the daemon's token for the session.
             rule("observe-in".into(), &["declare_subscriber"], "ingress", vec![session("observe/*")]),
-            rule("observe-watch-in".into(), &["declare_liveliness_subscriber", "liveliness_query"], "ingress", vec![session("client")]),
+            rule("observe-watch-in".into(), &["declare_liveliness_subscriber", "liveliness_query"], "ingress", vec![session("live")]),
             rule("observe-out".into(), &["put"], "egress", vec![session("observe/*")]),
-            rule("observe-watch-out".into(), &["liveliness_token", "reply"], "egress", vec![session("client")]),
+            rule("observe-watch-out".into(), &["liveliness_token", "reply"], "egress", vec![session("live")]),
         ];
         let mut subjects = Vec::new();
         let mut policies = Vec::new();

@@ -9,6 +9,7 @@
 //! listen = ["tcp/0.0.0.0:7447"]
 //! connect = []              # e.g. a router: ["tcp/10.0.0.1:7447"]
 //! mode = "router"           # "router" or "peer"
+//! name = "lab-server"       # this daemon's name (default: host name and pid); clients pick a daemon by it
 //! # For tls/ endpoints: the daemon's certificate chain and key (PEM); clients trust its CA.
 //! # tls = { certificate = "server.pem", private_key = "server.key" }
 //! # Mutual TLS: client certificates must be signed by this CA (`client_ca`); then each
@@ -20,6 +21,8 @@
 //! # open = 2                # sessions at once (0: may not open)
 //! # observe = false         # describe and the observer keys of any session
 //! # status = false          # the status query
+//! accept_pending = 1024     # connections in zenoh's handshake at once (more are closed)
+//! accept_timeout_ms = 2000  # a connection that has not finished its handshake by then is closed
 //!
 //! [limits]
 //! max_sessions = 16
@@ -65,11 +68,27 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// `router` (clients in client mode route through the daemon) or `peer`.
     pub mode: String,
+    /// The daemon's name on the zenoh network, one key chunk (default: the host's name and the
+    /// process id). Clients pick a daemon by it; two daemons on one network must differ.
+    pub name: Option<String>,
     /// Certificate and key for `tls/` endpoints, and the CA of client certificates.
     pub tls: Option<TlsFiles>,
     /// With client certificates: what each certificate (by common name) may do.
     pub access: Vec<crate::access::Grant>,
+    /// Connections still in zenoh's handshake at once; more are closed as they arrive
+    /// (zenoh's `transport/unicast/accept_pending`, 100 by default there).
+    pub accept_pending: usize,
+    /// Milliseconds a connection may take to finish zenoh's handshake before it is closed and
+    /// its slot freed (`transport/unicast/accept_timeout`, 10,000 by default there).
+    pub accept_timeout_ms: u64,
 }
+
+/// Pending connections the daemon's zenoh accepts at once, by default: ten times zenoh's own,
+/// so a hundred idle connections that never handshake leave room for real clients.
+pub const ACCEPT_PENDING: usize = 1024;
+/// Milliseconds a connection may take to handshake, by default: a LAN or TLS handshake takes
+/// milliseconds, and an idle connection then holds its slot 2 s instead of zenoh's 10 s.
+pub const ACCEPT_TIMEOUT_MS: u64 = 2000;
 
 /// The daemon's TLS identity: PEM files of its certificate chain and private key. Clients
 /// connect to `tls/HOST:PORT` trusting the CA that signed it
@@ -87,7 +106,7 @@ pub struct TlsFiles {
 
 impl Default for ZenohConfig {
     fn default() -> Self {
-        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into(), tls: None, access: Vec::new() }
+        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into(), name: None, tls: None, access: Vec::new(), accept_pending: ACCEPT_PENDING, accept_timeout_ms: ACCEPT_TIMEOUT_MS }
     }
 }
 
@@ -166,6 +185,17 @@ impl ServeConfig {
         if !matches!(self.zenoh.mode.as_str(), "router" | "peer") {
             return Err(ConfigError::Invalid(format!("zenoh mode {:?}: use \"router\" or \"peer\"", self.zenoh.mode)));
         }
+        if let Some(n) = &self.zenoh.name {
+            if !lumen_transport::names::is_key_chunk(n) || n.contains(['=', '&', ';']) {
+                return Err(ConfigError::Invalid(format!("[zenoh] name {n:?}: a daemon's name must be one zenoh key chunk (non-empty, none of / * $ # ? = & ;)")));
+            }
+        }
+        if self.zenoh.accept_pending == 0 || self.zenoh.accept_timeout_ms == 0 {
+            return Err(ConfigError::Invalid(format!(
+                "[zenoh] accept_pending = {}, accept_timeout_ms = {}: both must be > 0 (no client could connect)",
+                self.zenoh.accept_pending, self.zenoh.accept_timeout_ms
+            )));
+        }
         let l = &self.limits;
         if l.max_sessions == 0 || l.max_contacts == 0 || l.max_session_mib == 0 || l.max_observers > 64 {
             return Err(ConfigError::Invalid(format!("limits {l:?}: sessions, contacts and MiB must be > 0, observers at most 64")));
@@ -192,6 +222,9 @@ mod tests {
         let c: ServeConfig = toml::from_str("[zenoh]\nlisten = [\"tcp/127.0.0.1:7447\"]\n[limits]\nmax_sessions = 3\n").unwrap();
         assert!(c.iceoryx2.enabled && c.zenoh.enabled());
         assert_eq!((c.limits.max_sessions, c.limits.max_observers, c.zenoh.mode.as_str()), (3, 4, "router"));
+        assert_eq!((c.zenoh.accept_pending, c.zenoh.accept_timeout_ms), (ACCEPT_PENDING, ACCEPT_TIMEOUT_MS));
+        let closed: ServeConfig = toml::from_str("[zenoh]\nlisten = [\"tcp/127.0.0.1:7447\"]\naccept_pending = 0\n").unwrap();
+        assert!(closed.validate().unwrap_err().to_string().contains("accept_pending = 0"));
         assert!(toml::from_str::<ServeConfig>("[limits]\nmax_sesions = 3\n").unwrap_err().to_string().contains("max_sesions"));
         let off = ServeConfig { iceoryx2: IceoryxConfig { enabled: false, prefix: None }, ..Default::default() };
         assert!(off.validate().unwrap_err().to_string().contains("nothing to serve"));

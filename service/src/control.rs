@@ -54,6 +54,7 @@ pub fn handle(registry: &Registry, transport: Transport, requester: &Requester, 
     };
     match request {
         ControlRequest::Status => ControlReply::Status(registry.status()),
+        ControlRequest::Hello => ControlReply::Hello(registry.hello()),
         ControlRequest::Describe { session } => match registry.get(session) {
             // The stored info holds no secret: what describe tells an observer.
             Some(e) => ControlReply::Described(e.info.clone()),
@@ -152,6 +153,7 @@ fn open(
     };
     let info = SessionInfo {
         session: id,
+        daemon: registry.name.clone(),
         transport,
         spec,
         floats: layout.floats as u32,
@@ -159,11 +161,13 @@ fn open(
         max_contacts: max_contacts as u32,
         frame: frame_name(id),
         contacts: contacts_name(id),
-        alive: if transport == Transport::Zenoh { client_alive_name(id) } else { String::new() },
+        // Named by the secret: only in the opened reply (see `opened` below).
+        alive: String::new(),
         max_observers: observers as u32,
         secret: String::new(),
     };
-    let opened = SessionInfo { secret: secret.to_hex(), ..info.clone() };
+    let alive = if transport == Transport::Zenoh { client_alive_name(id, &secret) } else { String::new() };
+    let opened = SessionInfo { secret: secret.to_hex(), alive, ..info.clone() };
     let Some(entry) = registry.insert(info, secret, scene, client, holder) else {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
     };
@@ -242,7 +246,8 @@ mod tests {
         let ControlReply::Opened(again) = handle(&reg, Transport::Zenoh, &Requester::Anyone, open_req(spec(10)), |_| Ok(())) else { panic!() };
         assert_ne!(again.secret, info.secret, "each session its own secret");
         let ControlReply::Described(d) = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Describe { session: info.session }, |_| Ok(())) else { panic!() };
-        assert_eq!((d.secret.as_str(), d.session), ("", info.session), "describe tells no secret");
+        assert_eq!((d.secret.as_str(), d.alive.as_str(), d.session), ("", "", info.session), "describe tells no secret, nor the key it names");
+        assert_eq!(info.alive, lumen_transport::names::client_alive_name(info.session, &secret), "the opener's liveliness key");
         assert!(!serde_json::to_string(&ControlReply::Described(d)).unwrap().contains("secret"));
         let other = Secret::parse(&again.secret).unwrap();
         for proof in [String::new(), "00".repeat(32), other.close_proof(info.session), secret.close_proof(again.session)] {

@@ -27,7 +27,8 @@ impl Daemon {
     /// Starts every configured transport; returns when they all serve.
     pub fn start(self) -> Result<Running, DaemonError> {
         self.config.validate()?;
-        let registry = Arc::new(Registry::new(self.config.limits));
+        let name = self.config.zenoh.name.clone().unwrap_or_else(crate::registry::default_name);
+        let registry = Arc::new(Registry::named(self.config.limits, name));
         let mut threads = Vec::new();
         if self.config.iceoryx2.enabled {
             let local = Local::new(self.config.iceoryx2.prefix.clone(), registry.clone());
@@ -36,7 +37,15 @@ impl Daemon {
         if self.config.zenoh.enabled() {
             let z = &self.config.zenoh;
             let policy = self.config.policy()?;
-            let remote = Remote { mode: z.mode.clone(), listen: z.listen.clone(), connect: z.connect.clone(), tls: z.tls.clone(), policy, registry: registry.clone() };
+            let remote = Remote {
+                mode: z.mode.clone(),
+                listen: z.listen.clone(),
+                connect: z.connect.clone(),
+                tls: z.tls.clone(),
+                policy,
+                accept: (z.accept_pending, z.accept_timeout_ms),
+                registry: registry.clone(),
+            };
             match remote.start() {
                 Ok(t) => threads.push(t),
                 Err(e) => {

@@ -15,6 +15,9 @@ pub enum DaemonError {
     /// A thread could not be started.
     #[error("starting the {thread} thread: {source}")]
     Spawn { thread: String, source: std::io::Error },
+    /// Another daemon of the same name already serves on the zenoh network.
+    #[error("a daemon named {0:?} already serves on this zenoh network: give this one another name ([zenoh] name, or --zenoh-name)")]
+    NameTaken(String),
     /// A thread stopped before it reported that it serves.
     #[error("the {0} thread stopped before it served")]
     Stopped(String),

@@ -4,7 +4,7 @@ use crate::config::Limits;
 use crate::error::DaemonError;
 use crate::stats::Stats;
 use lumen_proto::auth::Secret;
-use lumen_proto::session::{SessionInfo, SessionStatus, StatusReport, Transport};
+use lumen_proto::session::{DaemonInfo, SessionInfo, SessionStatus, StatusReport, Transport};
 use lumen_proto::ValidScene;
 use std::collections::BTreeMap;
 use std::hash::{BuildHasher, RandomState};
@@ -34,6 +34,8 @@ pub struct Entry {
 #[derive(Debug)]
 pub struct Registry {
     pub limits: Limits,
+    /// The daemon's name on the zenoh network (see [`default_name`]).
+    pub name: String,
     started: Instant,
     /// Keys of the id hash, seeded by the OS.
     keys: RandomState,
@@ -47,7 +49,17 @@ impl Registry {
     /// OS seeds), so they can't be guessed from one another, and a restarted daemon never hands
     /// out an id whose channels an old client may still hold.
     pub fn new(limits: Limits) -> Self {
-        Self { limits, started: Instant::now(), keys: RandomState::new(), next: AtomicU64::new(0), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
+        Self::named(limits, default_name())
+    }
+
+    /// An empty registry of the daemon called `name`.
+    pub fn named(limits: Limits, name: String) -> Self {
+        Self { limits, name, started: Instant::now(), keys: RandomState::new(), next: AtomicU64::new(0), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
+    }
+
+    /// What [`lumen_proto::session::ControlRequest::Hello`] answers: the name and the load.
+    pub fn hello(&self) -> DaemonInfo {
+        DaemonInfo { daemon: self.name.clone(), pid: std::process::id(), sessions: self.len() as u32, max_sessions: self.limits.max_sessions as u32 }
     }
 
     /// A fresh random session id: nonzero, not in use, below 2^53 (so JSON doubles hold it
@@ -152,13 +164,23 @@ impl Registry {
                 }
             })
             .collect();
-        StatusReport { pid: std::process::id(), version: env!("CARGO_PKG_VERSION").into(), uptime_s: self.started.elapsed().as_secs_f64(), sessions }
+        StatusReport { daemon: self.name.clone(), pid: std::process::id(), version: env!("CARGO_PKG_VERSION").into(), uptime_s: self.started.elapsed().as_secs_f64(), sessions }
     }
 
     /// Sessions on `transport`.
     pub fn count(&self, transport: Transport) -> usize {
         self.sessions.lock().expect("registry lock").values().filter(|e| e.info.transport == transport).count()
     }
+}
+
+/// A daemon's name when its configuration gives none: the host's name and the process id
+/// (`lab-server-4242`), unique among daemons that share a zenoh network, with every character
+/// that cannot stand in one zenoh key chunk replaced by `-`.
+pub fn default_name() -> String {
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").map(|h| h.trim().to_owned()).unwrap_or_default();
+    let host = if host.is_empty() { "lumen".to_owned() } else { host };
+    let clean: String = host.chars().map(|c| if matches!(c, '/' | '*' | '$' | '#' | '?' | '=' | '&' | ';') || c.is_whitespace() { '-' } else { c }).collect();
+    format!("{clean}-{}", std::process::id())
 }
 
 /// A session thread's name: `kind` and as many of the id's last digits as fit in the 15 bytes
@@ -225,6 +247,13 @@ mod tests {
         // Spread over the whole range: the top bit of 53 is set for about half of them.
         let high = ids.iter().filter(|&&id| id >> 52 == 1).count();
         assert!((400..600).contains(&high), "{high} of 1000 in the upper half");
+    }
+
+    #[test]
+    fn a_default_name_is_one_key_chunk_and_ends_with_the_pid() {
+        let n = default_name();
+        assert!(lumen_transport::names::is_key_chunk(&n) && !n.contains(['=', '&']), "{n}");
+        assert!(n.ends_with(&format!("-{}", std::process::id())), "{n}");
     }
 
     #[test]

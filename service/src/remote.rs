@@ -10,8 +10,8 @@ use crate::registry::Registry;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
-use lumen_transport::names::{observe_contacts_name, observe_frame_name};
-use lumen_transport::names::{CONTROL, DAEMON_ALIVE};
+use lumen_transport::names::{client_alive_name, observe_contacts_name, observe_frame_name, session_live_name};
+use lumen_transport::names::{daemon_alive_name, CONTROL, DAEMON_PARAMETER};
 use lumen_transport::net::{config, set, tagged_queue, CONGESTION, FRAME_QUEUE, OBSERVER_CONGESTION};
 use lumen_transport::TransportError;
 use std::sync::mpsc;
@@ -32,6 +32,8 @@ pub struct Remote {
     pub tls: Option<crate::config::TlsFiles>,
     /// Client certificates required: who may do what (`None`: anyone who reaches the daemon).
     pub policy: Option<Policy>,
+    /// Connections in zenoh's handshake at once, and milliseconds each may take.
+    pub accept: (usize, u64),
     pub registry: Arc<Registry>,
 }
 
@@ -43,6 +45,11 @@ impl Remote {
         // at the largest frame a valid spec can have (instead of zenoh's default 1 GiB).
         let cap = 4 * lumen_proto::limits::MAX_STATE_FLOATS + FRAME_HEADER_BYTES + 1024;
         set(&mut cfg, "transport/link/rx/max_message_size", &cap.to_string())?;
+        // Connections that never finish the handshake hold a pending slot until the timeout;
+        // zenoh closes every new one while all slots are taken (`[zenoh] accept_pending`).
+        set(&mut cfg, "transport/unicast/accept_pending", &self.accept.0.to_string())?;
+        set(&mut cfg, "transport/unicast/accept_timeout", &self.accept.1.to_string())?;
+        raise_open_files(self.accept.0);
         if let Some(tls) = &self.tls {
             for (key, path) in [("listen_certificate", &tls.certificate), ("listen_private_key", &tls.private_key)] {
                 let value = serde_json::to_string(&path.display().to_string()).expect("a string");
@@ -57,10 +64,20 @@ impl Remote {
             set(&mut cfg, "access_control", &policy.acl().to_string())?;
         }
         let z = zenoh::open(cfg).wait().map_err(|e| TransportError::zenoh(format!("opening a session listening on {:?}", self.listen), e))?;
-        let token = z.liveliness().declare_token(DAEMON_ALIVE).wait().map_err(|e| TransportError::zenoh("declaring the daemon's liveliness token", e))?;
-        // `lumen/control` and, for certified clients, `lumen/control/<common name>`.
+        // One name, one daemon: a second daemon of the same name on this network would answer
+        // the first one's named requests too.
+        let alive = daemon_alive_name(&self.registry.name);
+        let taken = z.liveliness().get(&alive).timeout(std::time::Duration::from_millis(500)).wait().map_err(|e| TransportError::zenoh(format!("looking for another daemon named {alive}"), e))?;
+        if taken.recv().is_ok_and(|r| r.result().is_ok()) {
+            let _ = z.close().wait();
+            return Err(DaemonError::NameTaken(self.registry.name.clone()));
+        }
+        let token = z.liveliness().declare_token(&alive).wait().map_err(|e| TransportError::zenoh("declaring the daemon's liveliness token", e))?;
+        // `lumen/control` and, for certified clients, `lumen/control/<common name>`. Complete: a
+        // query with zenoh's default target (best matching) reaches exactly one daemon, so a
+        // client that names none still opens one session, on the nearest daemon.
         let keys = format!("{CONTROL}/**");
-        let queryable = z.declare_queryable(&keys).wait().map_err(|e| TransportError::zenoh(format!("declaring the queryable {keys}"), e))?;
+        let queryable = z.declare_queryable(&keys).complete(true).wait().map_err(|e| TransportError::zenoh(format!("declaring the queryable {keys}"), e))?;
         std::thread::Builder::new()
             .name("zenoh-control".into())
             .spawn(move || {
@@ -77,6 +94,11 @@ impl Remote {
                             break;
                         }
                     };
+                    // A request for another daemon (`?daemon=<name>`) is left unanswered: that
+                    // daemon answers it (the client asks every daemon at once).
+                    if query.parameters().get(DAEMON_PARAMETER).is_some_and(|n| n != self.registry.name) {
+                        continue;
+                    }
                     let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
                     let requester = self.policy.as_ref().map_or(Requester::Anyone, |p| p.requester(query.key_expr().as_str()));
                     let reply = match control::decode(&bytes) {
@@ -108,6 +130,23 @@ impl Remote {
     }
 }
 
+/// Raises this process's soft limit on open files to its hard limit when the soft one leaves
+/// fewer than `pending` + 256 descriptors (each pending connection holds one): a daemon out of
+/// descriptors could not accept a real client however the pending slots are set.
+fn raise_open_files(pending: usize) {
+    let mut lim = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: getrlimit/setrlimit only read and write the struct given.
+    unsafe {
+        if libc::getrlimit(libc::RLIMIT_NOFILE, &mut lim) != 0 || lim.rlim_cur >= (pending + 256) as libc::rlim_t {
+            return;
+        }
+        let want = libc::rlimit { rlim_cur: lim.rlim_max, rlim_max: lim.rlim_max };
+        if libc::setrlimit(libc::RLIMIT_NOFILE, &want) != 0 || lim.rlim_max < (pending + 256) as libc::rlim_t {
+            tracing::warn!("open files limited to {}: fewer than [zenoh] accept_pending ({pending}) + 256; a connection flood may exhaust them", lim.rlim_max);
+        }
+    }
+}
+
 /// Starts a session's thread; the inner result says whether its channels were created.
 fn start_session(z: zenoh::Session, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), DaemonError>), DaemonError> {
     let id = plan.entry.info.session;
@@ -132,7 +171,14 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     });
     let frames = z.declare_subscriber(info.frame.clone()).with((gate, handler)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
     let publisher = z.declare_publisher(info.contacts.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
-    let alive = z.liveliness().declare_subscriber(info.alive.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {}", info.alive), e))?;
+    // The client's token is on a key only the owner can name (its last chunk comes from the
+    // secret), and only a token on exactly that key counts: a stranger's token on a wildcard
+    // that covers it cannot keep the session alive once its client is gone.
+    let alive_key = client_alive_name(info.session, &plan.entry.secret);
+    let alive = z.liveliness().declare_subscriber(alive_key.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {alive_key}"), e))?;
+    // Held while the session lives: observers watch it to learn that the session ended.
+    let live_key = session_live_name(info.session);
+    let _live = z.liveliness().declare_token(live_key.clone()).wait().map_err(|e| TransportError::zenoh(format!("declaring {live_key}"), e))?;
     // Observers get the frames and replies repeated on keys of their own, droppable.
     let observe = |key: String| z.declare_publisher(key.clone()).congestion_control(OBSERVER_CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {key}"), e));
     let (observe_frames, observe_contacts) = (observe(observe_frame_name(info.session))?, observe(observe_contacts_name(info.session))?);
@@ -171,6 +217,9 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             last_tick = Instant::now();
             engine.tick();
             while let Ok(Some(s)) = alive.try_recv() {
+                if s.key_expr().as_str() != alive_key {
+                    continue;
+                }
                 match s.kind() {
                     SampleKind::Put => connected = true,
                     SampleKind::Delete => return Ok("its client left"),

@@ -472,3 +472,133 @@ fn a_strangers_close_frames_and_replies_all_fail() {
     assert_eq!(stranger.request(&s.close_request()).unwrap(), ControlReply::Closed { session: id });
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }
+
+#[test]
+fn a_strangers_token_does_not_keep_a_dead_clients_session() {
+    // Issue 16: a token held on a dead client's liveliness key kept its session alive. The key
+    // is now named by the session's secret, so a stranger who knows all that is public (the id,
+    // describe, status) can hold tokens only on keys near it, and the daemon counts only a
+    // token on exactly the owner's key.
+    let d = daemon("ztok");
+    let endpoint = d.endpoint();
+    let mut victim = lumen_e2e::spawn_client_role("child_role", &[("LUMEN_E2E_ENDPOINT", endpoint.as_str())]);
+    let id = victim.session_id();
+    assert!(victim.line_starting("ok ", WAIT).is_some());
+    let status = Client::zenoh(&endpoint).unwrap();
+    let described = match status.request(&ControlRequest::Describe { session: id }) {
+        Ok(ControlReply::Described(info)) => info,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!((described.alive.as_str(), described.secret.as_str()), ("", ""), "describe names neither the key nor the secret");
+    let raw = zenoh::open(lumen_transport::net::config("client", &[], &[endpoint.clone()]).unwrap()).wait().unwrap();
+    let keys = [format!("lumen/session/{id}/client"), format!("lumen/session/{id}/client/*"), format!("lumen/session/{id}/client/**"), format!("lumen/session/{id}/**")];
+    let _tokens: Vec<_> = keys.iter().map(|k| raw.liveliness().declare_token(k.clone()).wait().unwrap_or_else(|e| panic!("token on {k}: {e}"))).collect();
+    std::thread::sleep(Duration::from_millis(300)); // the tokens reach the daemon before the kill
+    let noticed = lumen_e2e::kill9_and_time_freeing(&mut victim, &status, id).unwrap_or_else(|last| panic!("the stranger's tokens kept the dead client's session {id}: {last}"));
+    assert!(noticed < Duration::from_millis(1500), "freed after {noticed:?}");
+}
+
+#[test]
+fn an_idle_connection_flood_leaves_room_for_clients() {
+    // Issue 16: 101 TCP connections that never handshake filled zenoh's pending-accept slots
+    // (100 by default) and every new client was closed for about 10 s. The daemon now allows
+    // `[zenoh] accept_pending` (1024) of them for `accept_timeout_ms` (2 s) each.
+    let flood = |port: u16, n: usize| -> Vec<std::net::TcpStream> { (0..n).map(|_| std::net::TcpStream::connect(("127.0.0.1", port)).expect("a flood connection")).collect() };
+    let d = daemon("zflood");
+    let port: u16 = d.endpoint().rsplit(':').next().unwrap().parse().unwrap();
+    let held = flood(port, 300);
+    std::thread::sleep(Duration::from_millis(200));
+    let client = Client::zenoh(&d.endpoint()).expect("a client beside 300 idle connections");
+    let scene = TestScene::new(30, 8, 16);
+    let mut s = client.open_session(&scene.spec).expect("opens");
+    s.submit_state(&scene.state(0)).unwrap();
+    assert_eq!(s.contacts(WAIT).unwrap().result(), Ok(()));
+    drop(held);
+    // The same flood against zenoh's own defaults locks a client out: what the setting buys.
+    let dir = std::env::temp_dir().join(format!("lumen_flood_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("zenoh_defaults.toml");
+    std::fs::write(&cfg, "[zenoh]\naccept_pending = 100\naccept_timeout_ms = 10000\n").unwrap();
+    let old = Daemon::start(Path::new(LUMEN), &unique_prefix("zflood0"), Some(free_port()), &["--config", cfg.to_str().unwrap()]);
+    let port: u16 = old.endpoint().rsplit(':').next().unwrap().parse().unwrap();
+    let held = flood(port, 101);
+    std::thread::sleep(Duration::from_millis(200));
+    let locked = Client::zenoh(&old.endpoint()).and_then(|c| c.status());
+    assert!(locked.is_err(), "zenoh's defaults let a client through 101 idle connections: {locked:?}");
+    drop(held);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
+    // Issue 16: a lab runs a zenoh router and a daemon per machine. Every daemon answered an
+    // open on `lumen/control`, so one open made a session on each. Now a client asks every
+    // daemon's load (hello) and opens on the least loaded by name, or on the one it names.
+    let router_endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let router = lumen_e2e::ChildProcess::spawn({
+        let mut c = std::process::Command::new(LUMEN);
+        c.args(["router", "--listen", &router_endpoint, "--log", "warn"]);
+        c
+    });
+    assert!(router.line_starting("lumen router: ready", Duration::from_secs(30)).is_some(), "the router did not get ready");
+    let serve = |name: &str| Daemon::start(Path::new(LUMEN), &unique_prefix(name), None, &["--zenoh-connect", &router_endpoint, "--zenoh-name", name]);
+    let a = serve("lab-a");
+    let mut b = serve("lab-b");
+    let client = Client::zenoh(&router_endpoint).unwrap();
+    assert!(lumen_e2e::eventually(Duration::from_secs(10), || client.daemons().is_ok_and(|d| d.len() == 2)), "both daemons answer through the router");
+    let names: Vec<String> = client.daemons().unwrap().into_iter().map(|d| d.daemon).collect();
+    assert!(names.contains(&"lab-a".into()) && names.contains(&"lab-b".into()), "{names:?}");
+    // A second daemon of a name already on the network refuses to start.
+    let twin = std::process::Command::new(LUMEN).args(["serve", "--prefix", &unique_prefix("lab-a2"), "--zenoh-connect", &router_endpoint, "--zenoh-name", "lab-a"]).output().unwrap();
+    assert!(!twin.status.success() && String::from_utf8_lossy(&twin.stderr).contains("already serves"), "{}", String::from_utf8_lossy(&twin.stderr));
+    // A foreign client that follows proto/README (a plain get on lumen/control) gets one reply:
+    // the daemons' control queryables are complete, so zenoh routes its query to one daemon.
+    let raw = zenoh::open(lumen_transport::net::config("client", &[], &[router_endpoint.clone()]).unwrap()).wait().unwrap();
+    let scene = TestScene::new(30, 8, 16);
+    let open = serde_json::to_vec(&ControlRequest::Open { version: lumen_proto::wire::PROTOCOL_VERSION, spec: scene.spec.clone(), client: "raw".into(), echo: false }).unwrap();
+    // (Every reply counted: zenoh's default consolidation would show one of several.)
+    let replies: Vec<_> = raw.get("lumen/control").consolidation(zenoh::query::ConsolidationMode::None).payload(open).timeout(WAIT).wait().unwrap().iter().collect();
+    assert_eq!(replies.len(), 1, "an unnamed open is answered by exactly one daemon");
+    let total = |reports: &[lumen_client::StatusReport]| reports.iter().map(|r| r.sessions.len()).sum::<usize>();
+    assert!(lumen_e2e::eventually(WAIT, || client.status_all().is_ok_and(|r| total(&r) == 1)), "one session for the one open");
+    let Ok(ControlReply::Opened(info)) = serde_json::from_slice::<ControlReply>(&replies[0].result().unwrap().payload().to_bytes()) else { panic!("not opened") };
+    let proof = Secret::parse(&info.secret).unwrap().close_proof(info.session);
+    assert_eq!(client.request(&ControlRequest::Close { session: info.session, proof }).unwrap(), ControlReply::Closed { session: info.session }, "closed on the daemon that has it");
+    assert_eq!(client.status_all().map(|r| total(&r)).unwrap(), 0);
+    // Eight opens: each on exactly one daemon, the least loaded, so both are used.
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
+    let mut sessions: Vec<lumen_client::Session> = (0..8).map(|k| client.open_session(&scene.spec).unwrap_or_else(|e| panic!("open {k}: {e}"))).collect();
+    let reports = client.status_all().unwrap();
+    assert_eq!(reports.iter().map(|r| r.daemon.as_str()).collect::<Vec<_>>(), ["lab-a", "lab-b"]);
+    for s in &sessions {
+        let holders: Vec<&str> = reports.iter().filter(|r| r.sessions.iter().any(|x| x.session == s.id())).map(|r| r.daemon.as_str()).collect();
+        assert_eq!(holders, [s.info().daemon.as_str()], "session {} on exactly the daemon its info names", s.id());
+    }
+    let on = |name: &str| sessions.iter().filter(|s| s.info().daemon == name).count();
+    assert_eq!((on("lab-a"), on("lab-b")), (4, 4), "the opens went to the least loaded daemon each time (the raw one is on one of them)");
+    for s in sessions.iter_mut() {
+        s.submit_state(&scene.state(0)).unwrap();
+        assert!(same_bits(s.contacts(WAIT).unwrap().contacts(), reference.detect(&scene.state(0)).unwrap()));
+    }
+    // A client may name its daemon.
+    let named = Client::zenoh(&router_endpoint).unwrap().on_daemon("lab-b").open_session(&scene.spec).unwrap();
+    assert_eq!(named.info().daemon, "lab-b");
+    named.close().unwrap();
+    // Killing one daemon leaves the other's sessions untouched.
+    let a_ids: Vec<u64> = sessions.iter().filter(|s| s.info().daemon == "lab-a").map(|s| s.id()).collect();
+    b.process.kill9();
+    for k in 1..20 {
+        for s in sessions.iter_mut().filter(|s| s.info().daemon == "lab-a") {
+            s.submit_state(&scene.state(k)).unwrap();
+            let id = s.id();
+            let r = s.contacts(WAIT).unwrap_or_else(|e| panic!("frame {k} of session {id} on lab-a: {e}"));
+            assert!(same_bits(r.contacts(), reference.detect(&scene.state(k)).unwrap()), "frame {k}");
+        }
+    }
+    assert!(lumen_e2e::eventually(Duration::from_secs(5), || client.status_all().is_ok_and(|r| r.len() == 1)), "lab-b is gone from status");
+    let left = client.status_all().unwrap();
+    assert_eq!(left[0].daemon, "lab-a");
+    assert!(a_ids.iter().all(|id| left[0].sessions.iter().any(|x| x.session == *id && x.frames == 20)), "lab-a's sessions, every frame answered");
+    drop(sessions);
+    drop(a);
+}

@@ -1,6 +1,8 @@
 //! Names of the control channel and of each session's channels: iceoryx2 service names and
 //! zenoh key expressions alike (`proto/README.md` documents them for other languages).
 
+use lumen_proto::auth::Secret;
+
 /// Root of every service name and key expression.
 pub const ROOT: &str = "lumen";
 /// The control channel: iceoryx2 request-response service name and zenoh key expression.
@@ -18,8 +20,18 @@ pub fn is_key_chunk(s: &str) -> bool {
     !s.is_empty() && !s.contains(['/', '*', '$', '#', '?'])
 }
 
-/// Zenoh liveliness token the daemon holds while it runs.
-pub const DAEMON_ALIVE: &str = "lumen/daemon";
+/// Zenoh liveliness token daemon `name` holds while it runs (`lumen/daemon/<name>`); a client
+/// watches its session's daemon's (the session info's `daemon`).
+pub fn daemon_alive_name(name: &str) -> String {
+    format!("{ROOT}/daemon/{name}")
+}
+
+/// The key of every daemon's liveliness token.
+pub const DAEMONS_ALIVE: &str = "lumen/daemon/*";
+
+/// The selector parameter of a zenoh control request that names the daemon it is for
+/// (`lumen/control?daemon=<name>`): the others drop it unanswered.
+pub const DAEMON_PARAMETER: &str = "daemon";
 
 /// Name of session `id`'s frame channel (iceoryx2 publish-subscribe + event service of the same
 /// name, or zenoh key).
@@ -32,9 +44,17 @@ pub fn contacts_name(id: u64) -> String {
     format!("{ROOT}/session/{id}/contacts")
 }
 
-/// Zenoh liveliness key the client of session `id` must hold while it lives.
-pub fn client_alive_name(id: u64) -> String {
-    format!("{ROOT}/session/{id}/client")
+/// Zenoh liveliness key the client of session `id` must hold while it lives:
+/// `lumen/session/<id>/client/<chunk>`, the last chunk derived from the session's secret
+/// ([`Secret::alive_chunk`]), so only its owner can name it.
+pub fn client_alive_name(id: u64, secret: &Secret) -> String {
+    format!("{ROOT}/session/{id}/client/{}", secret.alive_chunk(id))
+}
+
+/// Zenoh liveliness key the daemon holds while session `id` is open: observers watch it to
+/// learn that the session ended.
+pub fn session_live_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/live")
 }
 
 /// Zenoh key on which the daemon repeats session `id`'s frames for observers, droppable: an
@@ -56,10 +76,12 @@ mod tests {
     fn names_are_the_documented_strings() {
         assert_eq!(frame_name(42), "lumen/session/42/frame");
         assert_eq!(contacts_name(42), "lumen/session/42/contacts");
-        assert_eq!(client_alive_name(42), "lumen/session/42/client");
+        let secret = Secret::from_bytes(std::array::from_fn(|i| i as u8));
+        assert_eq!(client_alive_name(42, &secret), "lumen/session/42/client/732caea5f9833e0b2c42100effe25326");
+        assert_eq!(session_live_name(42), "lumen/session/42/live");
         assert_eq!(observe_frame_name(42), "lumen/session/42/observe/frame");
         assert_eq!(observe_contacts_name(42), "lumen/session/42/observe/contacts");
-        assert_eq!((CONTROL, DAEMON_ALIVE), ("lumen/control", "lumen/daemon"));
+        assert_eq!((CONTROL, daemon_alive_name("lab-1").as_str(), DAEMONS_ALIVE), ("lumen/control", "lumen/daemon/lab-1", "lumen/daemon/*"));
         assert_eq!(control_name_for("physics-a"), "lumen/control/physics-a");
         assert!(is_key_chunk("physics-a.lab") && !is_key_chunk("a/b") && !is_key_chunk("") && !is_key_chunk("a*"));
     }

@@ -33,6 +33,14 @@ pub fn config(mode: &str, listen: &[String], connect: &[String]) -> Result<zenoh
     Ok(c)
 }
 
+/// A zenoh router listening on `listen` and connected to the routers at `connect` (what
+/// `lumen router` runs: daemons on several machines and their clients meet there). Closed when
+/// dropped.
+pub fn open_router(listen: &[String], connect: &[String]) -> Result<zenoh::Session, TransportError> {
+    use zenoh::Wait;
+    zenoh::open(config("router", listen, connect)?).wait().map_err(|e| TransportError::zenoh(format!("opening a router listening on {listen:?}"), e))
+}
+
 /// Sets one configuration key of `config` to the JSON5 `value`.
 pub fn set(config: &mut zenoh::Config, key: &str, value: &str) -> Result<(), TransportError> {
     config.insert_json5(key, value).map_err(|e| TransportError::zenoh(format!("config {key} = {value}"), e))

@@ -5,6 +5,7 @@ pub mod demo;
 pub mod import;
 pub mod record;
 pub mod replay;
+pub mod router;
 pub mod serve;
 pub mod sim;
 pub mod status;
@@ -30,6 +31,8 @@ pub struct Cli {
 pub enum Command {
     /// Run the daemon (iceoryx2 on this machine, zenoh across machines).
     Serve(serve::ServeArgs),
+    /// A zenoh router alone: daemons on several machines connect to it, clients too.
+    Router(router::RouterArgs),
     /// List the daemon's sessions with frame rates, latencies and contact counts.
     Status(status::StatusArgs),
     /// Build a tube model from a triangle surface and its midline (ray casts per ring).
@@ -56,6 +59,7 @@ impl Cli {
         let done = |r: CliResult| r.map(|()| ExitCode::SUCCESS);
         let result = match self.command {
             Command::Serve(a) => done(serve::run(a)),
+            Command::Router(a) => done(router::run(a)),
             Command::Status(a) => done(status::run(a)),
             Command::Import(a) => done(import::run(a)),
             Command::Sim(a) => sim::run(a),

@@ -24,6 +24,10 @@ pub struct ServeArgs {
     /// Connect zenoh to this router (repeatable).
     #[arg(long = "zenoh-connect", value_name = "ENDPOINT")]
     pub zenoh_connect: Vec<String>,
+    /// This daemon's name on the zenoh network (default: the host's name and the pid): clients
+    /// pick a daemon by it (`--daemon`).
+    #[arg(long = "zenoh-name", value_name = "NAME")]
+    pub zenoh_name: Option<String>,
     /// zenoh mode: router or peer.
     #[arg(long = "zenoh-mode")]
     pub zenoh_mode: Option<String>,
@@ -71,6 +75,9 @@ impl ServeArgs {
         if let (Some(ca), Some(tls)) = (&self.zenoh_client_ca, c.zenoh.tls.as_mut()) {
             tls.client_ca = Some(ca.clone());
         }
+        if self.zenoh_name.is_some() {
+            c.zenoh.name = self.zenoh_name.clone();
+        }
         if let Some(m) = &self.zenoh_mode {
             c.zenoh.mode = m.clone();
         }
@@ -88,9 +95,10 @@ pub fn run(args: ServeArgs) -> CliResult {
     block_termination_signals();
     let config = args.config()?;
     let running = Daemon::new(config.clone()).start()?;
+    let name = running.registry.name.clone();
     let transports = [
         config.iceoryx2.enabled.then(|| format!("iceoryx2 (prefix {})", config.iceoryx2.prefix.as_deref().unwrap_or("iox2_"))),
-        config.zenoh.enabled().then(|| format!("zenoh {} {:?} {:?}", config.zenoh.mode, config.zenoh.listen, config.zenoh.connect)),
+        config.zenoh.enabled().then(|| format!("zenoh {} {:?} {:?} as {name:?}", config.zenoh.mode, config.zenoh.listen, config.zenoh.connect)),
     ];
     let transports: Vec<String> = transports.into_iter().flatten().collect();
     // One line on stdout when serving: scripts and tests wait for it.

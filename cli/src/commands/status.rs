@@ -9,25 +9,31 @@ use lumen_client::StatusReport;
 pub struct StatusArgs {
     #[command(flatten)]
     pub transport: TransportArgs,
-    /// Print the raw JSON report.
+    /// Print the raw JSON report (an array of reports where several daemons answer).
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: StatusArgs) -> CliResult {
     let client = args.transport.client("lumen status")?;
-    let report = client.status()?;
+    // Over zenoh every daemon on the network answers (through a router), each its own table.
+    let reports = client.status_all()?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        match reports.as_slice() {
+            [one] => println!("{}", serde_json::to_string_pretty(one)?),
+            many => println!("{}", serde_json::to_string_pretty(many)?),
+        }
     } else {
-        print!("{}", table(&report));
+        for r in &reports {
+            print!("{}", table(r));
+        }
     }
     Ok(())
 }
 
 /// The report as a text table.
 pub fn table(r: &StatusReport) -> String {
-    let mut s = format!("lumen daemon pid {} (v{}), up {:.0} s, {} sessions\n", r.pid, r.version, r.uptime_s, r.sessions.len());
+    let mut s = format!("lumen daemon {:?} pid {} (v{}), up {:.0} s, {} sessions\n", r.daemon, r.pid, r.version, r.uptime_s, r.sessions.len());
     if r.sessions.is_empty() {
         return s;
     }

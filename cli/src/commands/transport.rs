@@ -50,6 +50,10 @@ pub struct TransportArgs {
     /// The private key of --zenoh-cert.
     #[arg(long = "zenoh-key", value_name = "PEM", requires = "zenoh_cert")]
     pub zenoh_key: Option<PathBuf>,
+    /// Open sessions on the daemon of this name (its `--zenoh-name`), not on the least loaded
+    /// daemon of the zenoh network.
+    #[arg(long = "daemon", value_name = "NAME")]
+    pub daemon: Option<String>,
 }
 
 impl TransportArgs {
@@ -73,6 +77,10 @@ impl TransportArgs {
                         let identity = self.zenoh_cert.clone().zip(self.zenoh_key.clone());
                         Client::zenoh_with_tls(endpoint, &Tls { root_ca: ca.clone(), identity })?
                     }
+                };
+                let client = match &self.daemon {
+                    Some(d) => client.on_daemon(d),
+                    None => client,
                 };
                 Ok(client.with_name(name))
             }
