@@ -490,7 +490,7 @@ fn a_strangers_token_does_not_keep_a_dead_clients_session() {
         other => panic!("{other:?}"),
     };
     assert_eq!((described.alive.as_str(), described.secret.as_str()), ("", ""), "describe names neither the key nor the secret");
-    let raw = zenoh::open(lumen_transport::net::config("client", &[], &[endpoint.clone()]).unwrap()).wait().unwrap();
+    let raw = zenoh::open(lumen_transport::net::config("client", &[], std::slice::from_ref(&endpoint)).unwrap()).wait().unwrap();
     let keys = [format!("lumen/session/{id}/client"), format!("lumen/session/{id}/client/*"), format!("lumen/session/{id}/client/**"), format!("lumen/session/{id}/**")];
     let _tokens: Vec<_> = keys.iter().map(|k| raw.liveliness().declare_token(k.clone()).wait().unwrap_or_else(|e| panic!("token on {k}: {e}"))).collect();
     std::thread::sleep(Duration::from_millis(300)); // the tokens reach the daemon before the kill
@@ -553,7 +553,7 @@ fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
     assert!(!twin.status.success() && String::from_utf8_lossy(&twin.stderr).contains("already serves"), "{}", String::from_utf8_lossy(&twin.stderr));
     // A foreign client that follows proto/README (a plain get on lumen/control) gets one reply:
     // the daemons' control queryables are complete, so zenoh routes its query to one daemon.
-    let raw = zenoh::open(lumen_transport::net::config("client", &[], &[router_endpoint.clone()]).unwrap()).wait().unwrap();
+    let raw = zenoh::open(lumen_transport::net::config("client", &[], std::slice::from_ref(&router_endpoint)).unwrap()).wait().unwrap();
     let scene = TestScene::new(30, 8, 16);
     let open = serde_json::to_vec(&ControlRequest::Open { version: lumen_proto::wire::PROTOCOL_VERSION, spec: scene.spec.clone(), client: "raw".into(), echo: false }).unwrap();
     // (Every reply counted: zenoh's default consolidation would show one of several.)
