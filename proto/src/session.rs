@@ -219,6 +219,11 @@ pub struct StatusReport {
     pub version: String,
     pub uptime_s: f64,
     pub sessions: Vec<SessionStatus>,
+    /// Sessions the daemon serves but does not list to this client: over zenoh its status
+    /// policy (`[zenoh] status`, `"counts"` by default) shows a client without a certificate
+    /// granting `status` only how many sessions there are.
+    #[serde(default)]
+    pub hidden: u32,
 }
 
 #[cfg(test)]

@@ -21,6 +21,7 @@
 //! # open = 2                # sessions at once (0: may not open)
 //! # observe = false         # describe and the observer keys of any session
 //! # status = false          # the status query
+//! status = "counts"        # what status shows a client without a certificate grant: "counts" or "sessions"
 //! accept_pending = 1024     # connections in zenoh's handshake at once (more are closed)
 //! accept_timeout_ms = 2000  # a connection that has not finished its handshake by then is closed
 //!
@@ -75,12 +76,27 @@ pub struct ZenohConfig {
     pub tls: Option<TlsFiles>,
     /// With client certificates: what each certificate (by common name) may do.
     pub access: Vec<crate::access::Grant>,
+    /// What `status` shows a zenoh client that no certificate grant identifies: how many sessions
+    /// there are (`counts`, the default), or every session with its id and figures (`sessions`).
+    /// A certificate granted `status` sees every session either way.
+    pub status: StatusPolicy,
     /// Connections still in zenoh's handshake at once; more are closed as they arrive
     /// (zenoh's `transport/unicast/accept_pending`, 100 by default there).
     pub accept_pending: usize,
     /// Milliseconds a connection may take to finish zenoh's handshake before it is closed and
     /// its slot freed (`transport/unicast/accept_timeout`, 10,000 by default there).
     pub accept_timeout_ms: u64,
+}
+
+/// What a zenoh client without a certificate grant learns from `status`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StatusPolicy {
+    /// The number of sessions only (`StatusReport::hidden`): no ids, clients or figures.
+    #[default]
+    Counts,
+    /// Every session, as over iceoryx2.
+    Sessions,
 }
 
 /// Pending connections the daemon's zenoh accepts at once, by default: ten times zenoh's own,
@@ -106,7 +122,17 @@ pub struct TlsFiles {
 
 impl Default for ZenohConfig {
     fn default() -> Self {
-        Self { listen: Vec::new(), connect: Vec::new(), mode: "router".into(), name: None, tls: None, access: Vec::new(), accept_pending: ACCEPT_PENDING, accept_timeout_ms: ACCEPT_TIMEOUT_MS }
+        Self {
+            listen: Vec::new(),
+            connect: Vec::new(),
+            mode: "router".into(),
+            name: None,
+            tls: None,
+            access: Vec::new(),
+            status: StatusPolicy::Counts,
+            accept_pending: ACCEPT_PENDING,
+            accept_timeout_ms: ACCEPT_TIMEOUT_MS,
+        }
     }
 }
 
@@ -222,7 +248,10 @@ mod tests {
         let c: ServeConfig = toml::from_str("[zenoh]\nlisten = [\"tcp/127.0.0.1:7447\"]\n[limits]\nmax_sessions = 3\n").unwrap();
         assert!(c.iceoryx2.enabled && c.zenoh.enabled());
         assert_eq!((c.limits.max_sessions, c.limits.max_observers, c.zenoh.mode.as_str()), (3, 4, "router"));
-        assert_eq!((c.zenoh.accept_pending, c.zenoh.accept_timeout_ms), (ACCEPT_PENDING, ACCEPT_TIMEOUT_MS));
+        assert_eq!((c.zenoh.accept_pending, c.zenoh.accept_timeout_ms, c.zenoh.status), (ACCEPT_PENDING, ACCEPT_TIMEOUT_MS, StatusPolicy::Counts));
+        let open: ServeConfig = toml::from_str("[zenoh]\nstatus = \"sessions\"\n").unwrap();
+        assert_eq!(open.zenoh.status, StatusPolicy::Sessions);
+        assert!(toml::from_str::<ServeConfig>("[zenoh]\nstatus = \"all\"\n").unwrap_err().to_string().contains("counts"));
         let closed: ServeConfig = toml::from_str("[zenoh]\nlisten = [\"tcp/127.0.0.1:7447\"]\naccept_pending = 0\n").unwrap();
         assert!(closed.validate().unwrap_err().to_string().contains("accept_pending = 0"));
         assert!(toml::from_str::<ServeConfig>("[limits]\nmax_sesions = 3\n").unwrap_err().to_string().contains("max_sesions"));

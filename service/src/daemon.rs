@@ -43,6 +43,7 @@ impl Daemon {
                 connect: z.connect.clone(),
                 tls: z.tls.clone(),
                 policy,
+                status: z.status,
                 accept: (z.accept_pending, z.accept_timeout_ms),
                 registry: registry.clone(),
             };

@@ -164,7 +164,7 @@ impl Registry {
                 }
             })
             .collect();
-        StatusReport { daemon: self.name.clone(), pid: std::process::id(), version: env!("CARGO_PKG_VERSION").into(), uptime_s: self.started.elapsed().as_secs_f64(), sessions }
+        StatusReport { daemon: self.name.clone(), pid: std::process::id(), version: env!("CARGO_PKG_VERSION").into(), uptime_s: self.started.elapsed().as_secs_f64(), sessions, hidden: 0 }
     }
 
     /// Sessions on `transport`.

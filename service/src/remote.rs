@@ -3,6 +3,7 @@
 //! session lives while its client's liveliness token does.
 
 use crate::access::{Policy, Requester};
+use crate::config::StatusPolicy;
 use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
@@ -32,6 +33,8 @@ pub struct Remote {
     pub tls: Option<crate::config::TlsFiles>,
     /// Client certificates required: who may do what (`None`: anyone who reaches the daemon).
     pub policy: Option<Policy>,
+    /// What `status` shows a client no certificate grant identifies.
+    pub status: StatusPolicy,
     /// Connections in zenoh's handshake at once, and milliseconds each may take.
     pub accept: (usize, u64),
     pub registry: Arc<Registry>,
@@ -101,7 +104,7 @@ impl Remote {
                     }
                     let bytes = query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default();
                     let requester = self.policy.as_ref().map_or(Requester::Anyone, |p| p.requester(query.key_expr().as_str()));
-                    let reply = match control::decode(&bytes) {
+                    let mut reply = match control::decode(&bytes) {
                         Ok(req) => control::handle(&self.registry, Transport::Zenoh, &requester, req, |plan| {
                             let (h, r) = start_session(z.clone(), plan, self.registry.clone())?;
                             sessions.push(h);
@@ -109,6 +112,10 @@ impl Remote {
                         }),
                         Err(reply) => reply,
                     };
+                    // Anyone on the network, unidentified: only as much as the policy shows.
+                    if let (ControlReply::Status(report), Requester::Anyone, StatusPolicy::Counts) = (&mut reply, &requester, self.status) {
+                        control::counts_only(report);
+                    }
                     if let ControlReply::Error(e) = &reply {
                         tracing::info!("refused a zenoh control request: {}", e.message);
                     }

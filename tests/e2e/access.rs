@@ -123,7 +123,7 @@ fn with_client_certificates_each_client_does_exactly_what_its_grant_allows() {
         .declare_queryable("lumen/control/**")
         .callback(move |q| {
             counter.fetch_add(1, Ordering::SeqCst);
-            let fake = serde_json::to_vec(&ControlReply::Status(StatusReport { daemon: "impostor".into(), pid: 1, version: "impostor".into(), uptime_s: 0.0, sessions: vec![] })).unwrap();
+            let fake = serde_json::to_vec(&ControlReply::Status(StatusReport { daemon: "impostor".into(), pid: 1, version: "impostor".into(), uptime_s: 0.0, sessions: vec![], hidden: 0 })).unwrap();
             let _ = q.reply(q.key_expr().clone(), fake).wait();
         })
         .wait()

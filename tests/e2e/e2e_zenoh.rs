@@ -124,8 +124,10 @@ fn a_session_ended_under_its_client_is_reopened_on_the_next_frame() {
     lumen_e2e::closed_sessions_reopen(&mut s, &Client::zenoh(&d.endpoint()).unwrap(), &scene, &mut reference);
 }
 
+/// A daemon on its own port whose status lists every session to anyone (these tests read
+/// sessions from status; the default, counts only, has its own test).
 fn daemon(tag: &str) -> Daemon {
-    Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), &[])
+    Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), &["--zenoh-status", "sessions"])
 }
 
 #[test]
@@ -541,7 +543,7 @@ fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
         c
     });
     assert!(router.line_starting("lumen router: ready", Duration::from_secs(30)).is_some(), "the router did not get ready");
-    let serve = |name: &str| Daemon::start(Path::new(LUMEN), &unique_prefix(name), None, &["--zenoh-connect", &router_endpoint, "--zenoh-name", name]);
+    let serve = |name: &str| Daemon::start(Path::new(LUMEN), &unique_prefix(name), None, &["--zenoh-connect", &router_endpoint, "--zenoh-name", name, "--zenoh-status", "sessions"]);
     let a = serve("lab-a");
     let mut b = serve("lab-b");
     let client = Client::zenoh(&router_endpoint).unwrap();
@@ -601,4 +603,35 @@ fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
     assert!(a_ids.iter().all(|id| left[0].sessions.iter().any(|x| x.session == *id && x.frames == 20)), "lab-a's sessions, every frame answered");
     drop(sessions);
     drop(a);
+}
+
+#[test]
+fn status_shows_an_unidentified_zenoh_client_only_how_many_sessions_there_are() {
+    // Issue 16: status listed every session's id, client and figures to anyone on the network.
+    // By default ([zenoh] status = "counts") a zenoh client no certificate grant identifies
+    // learns how many sessions there are; iceoryx2 (this machine, the daemon's account) and
+    // `--zenoh-status sessions` list them.
+    let prefix = unique_prefix("zcounts");
+    let d = Daemon::start(Path::new(LUMEN), &prefix, Some(free_port()), &[]);
+    let scene = TestScene::new(30, 8, 16);
+    let owner = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = owner.open_session(&scene.spec).unwrap();
+    s.submit_state(&scene.state(0)).unwrap();
+    s.contacts(WAIT).unwrap();
+    let stranger = Client::zenoh(&d.endpoint()).unwrap();
+    let st = stranger.status().unwrap();
+    assert_eq!((st.sessions.len(), st.hidden), (0, 1), "a count, no session");
+    let out = std::process::Command::new(LUMEN).args(["status", "--zenoh", &d.endpoint(), "--json"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && text.contains("\"hidden\": 1") && !text.contains(&s.id().to_string()), "{text}");
+    let table = std::process::Command::new(LUMEN).args(["status", "--zenoh", &d.endpoint()]).output().unwrap();
+    assert!(String::from_utf8_lossy(&table.stdout).contains("1 session(s) not listed"), "{}", String::from_utf8_lossy(&table.stdout));
+    let local = Client::local_with(lumen_client::LocalOptions { prefix: Some(prefix.clone()), name: None }).unwrap().status().unwrap();
+    assert_eq!((local.sessions.iter().map(|x| x.session).collect::<Vec<_>>(), local.hidden), (vec![s.id()], 0), "listed over iceoryx2");
+    let listing = Daemon::start(Path::new(LUMEN), &unique_prefix("zlist"), Some(free_port()), &["--zenoh-status", "sessions"]);
+    let mut t = Client::zenoh(&listing.endpoint()).unwrap().open_session(&scene.spec).unwrap();
+    t.submit_state(&scene.state(0)).unwrap();
+    t.contacts(WAIT).unwrap();
+    let st = Client::zenoh(&listing.endpoint()).unwrap().status().unwrap();
+    assert_eq!((st.sessions.iter().map(|x| x.session).collect::<Vec<_>>(), st.hidden), (vec![t.id()], 0), "listed under --zenoh-status sessions");
 }

@@ -28,6 +28,10 @@ pub struct ServeArgs {
     /// pick a daemon by it (`--daemon`).
     #[arg(long = "zenoh-name", value_name = "NAME")]
     pub zenoh_name: Option<String>,
+    /// What `status` shows a zenoh client without a certificate grant: counts (the default: how
+    /// many sessions, no ids) or sessions (every session, its id and figures).
+    #[arg(long = "zenoh-status", value_name = "POLICY", value_parser = ["counts", "sessions"])]
+    pub zenoh_status: Option<String>,
     /// zenoh mode: router or peer.
     #[arg(long = "zenoh-mode")]
     pub zenoh_mode: Option<String>,
@@ -74,6 +78,9 @@ impl ServeArgs {
         }
         if let (Some(ca), Some(tls)) = (&self.zenoh_client_ca, c.zenoh.tls.as_mut()) {
             tls.client_ca = Some(ca.clone());
+        }
+        if let Some(p) = &self.zenoh_status {
+            c.zenoh.status = if p == "sessions" { lumen_service::config::StatusPolicy::Sessions } else { lumen_service::config::StatusPolicy::Counts };
         }
         if self.zenoh_name.is_some() {
             c.zenoh.name = self.zenoh_name.clone();

@@ -33,7 +33,10 @@ pub fn run(args: StatusArgs) -> CliResult {
 
 /// The report as a text table.
 pub fn table(r: &StatusReport) -> String {
-    let mut s = format!("lumen daemon {:?} pid {} (v{}), up {:.0} s, {} sessions\n", r.daemon, r.pid, r.version, r.uptime_s, r.sessions.len());
+    let mut s = format!("lumen daemon {:?} pid {} (v{}), up {:.0} s, {} sessions\n", r.daemon, r.pid, r.version, r.uptime_s, r.sessions.len() + r.hidden as usize);
+    if r.hidden > 0 {
+        s += &format!("  {} session(s) not listed to this client (the daemon's [zenoh] status policy: counts)\n", r.hidden);
+    }
     if r.sessions.is_empty() {
         return s;
     }

@@ -184,6 +184,9 @@ fn next_session(client: &Client, seen: &HashSet<u64>) -> CliResult<Option<u64>> 
             return Ok(Some(s.session));
         }
         if !said {
+            if report.hidden > 0 {
+                eprintln!("lumen view: the daemon serves {} session(s) it does not list to this client ([zenoh] status policy): give the SESSION id", report.hidden);
+            }
             eprintln!("lumen view: waiting for a session on {}", client.transport());
             said = true;
         }

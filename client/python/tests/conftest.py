@@ -62,7 +62,8 @@ class Daemon:
         self.port: Optional[int] = free_port() if zenoh else None
         cmd = [str(binary), "serve", "--prefix", self.prefix, "--log", "warn"]
         if self.port is not None:
-            cmd += ["--zenoh-listen", f"tcp/127.0.0.1:{self.port}"]
+            # The tests read every session from status: list them (the default shows counts only).
+            cmd += ["--zenoh-listen", f"tcp/127.0.0.1:{self.port}", "--zenoh-status", "sessions"]
         self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
         self.lines: "queue.Queue[str]" = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
