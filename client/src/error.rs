@@ -25,6 +25,10 @@ pub enum Error {
     /// An async wait was called outside a tokio runtime with I/O enabled.
     #[error("contacts_async needs a tokio runtime with I/O enabled")]
     NoRuntime,
+    /// The session admits no more observers: its iceoryx2 channels hold its client and
+    /// `max` observers (the daemon's `limits.max_observers`), and all are attached.
+    #[error("session {session} already has {max} observers, as many as the daemon allows (limits.max_observers): detach one or raise the limit")]
+    ObserversFull { session: u64, max: u32 },
     /// The observed session ended (its client left or the daemon stopped).
     #[error("session {0} ended")]
     SessionEnded(u64),

@@ -326,14 +326,18 @@ pub(crate) struct LocalObserver {
 
 impl LocalObserver {
     fn new(node: &Rc<Node<Svc>>, info: SessionInfo) -> Result<Self, Error> {
-        let (frame, frame_event) = open_frame(node, &info.frame)?;
-        let (contacts, contacts_event) = open_contacts(node, &info.contacts)?;
-        let max = info.max_observers;
-        let full = |what: &str| format!("{what} (at most {max} observers per session)");
-        let frames = frame.subscriber_builder().create().map_err(|e| Error::iox(&full("subscribing to frames"), e))?;
-        let replies = contacts.subscriber_builder().create().map_err(|e| Error::iox(&full("subscribing to contacts"), e))?;
-        let frame_listener = frame_event.listener_builder().create().map_err(|e| Error::iox(&full("listening for frames"), e))?;
-        let contacts_listener = contacts_event.listener_builder().create().map_err(|e| Error::iox(&full("listening for contacts"), e))?;
+        // Every way a session can be full (its services' nodes, subscribers, listeners) is one
+        // error naming the limit, not iceoryx2's own.
+        let full = || Error::ObserversFull { session: info.session, max: info.max_observers };
+        let named = |e: lumen_transport::TransportError| if matches!(e, lumen_transport::TransportError::Full { .. }) { full() } else { e.into() };
+        let (frame, frame_event) = open_frame(node, &info.frame).map_err(named)?;
+        let (contacts, contacts_event) = open_contacts(node, &info.contacts).map_err(named)?;
+        use iceoryx2::port::listener::ListenerCreateError::ExceedsMaxSupportedListeners;
+        use iceoryx2::port::subscriber::SubscriberCreateError::ExceedsMaxSupportedSubscribers;
+        let frames = frame.subscriber_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedSubscribers) { full() } else { Error::iox("subscribing to frames", e) })?;
+        let replies = contacts.subscriber_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedSubscribers) { full() } else { Error::iox("subscribing to contacts", e) })?;
+        let frame_listener = frame_event.listener_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedListeners) { full() } else { Error::iox("listening for frames", e) })?;
+        let contacts_listener = contacts_event.listener_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedListeners) { full() } else { Error::iox("listening for contacts", e) })?;
         Ok(Self { frame_sample: None, contacts_sample: None, contacts, frames, replies, frame_listener, contacts_listener, node: node.clone(), info, prefer_frame: true })
     }
 

@@ -19,6 +19,8 @@ pub enum SpecError {
     BadRadius { body: String, index: usize, value: f32 },
     #[error("body {body:?}: {got} radii given for {points} control points; give 1 or {points}")]
     RadiusCount { body: String, got: usize, points: usize },
+    #[error("body #{index}'s name is {got} bytes (it begins {start:?}); at most {max} are allowed")]
+    NameTooLong { index: usize, got: usize, start: String, max: usize },
     #[error("two bodies are named {0:?}; names must be unique")]
     DuplicateName(String),
     #[error("pair #{pair} names body {name:?}, which the scene does not declare")]

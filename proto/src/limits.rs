@@ -21,6 +21,9 @@ pub const MAX_REFINE: u32 = 4;
 /// one, each a contact flagged `FLAG_OTHER_WALL`: walls all around it where the lumen is
 /// narrower than the rod's reach, and with `nearest` a corner's or a pocket's.
 pub const MAX_OTHER_WALLS: usize = 3;
+/// Longest body name and client name, in bytes (UTF-8): names are echoed in errors and in every
+/// status report, so they are bounded well below the control request's 4 MiB.
+pub const MAX_NAME_BYTES: usize = 128;
 /// Most `f32` values in one frame's state (64 MiB of floats).
 pub const MAX_STATE_FLOATS: usize = 16 * 1024 * 1024;
 

@@ -40,6 +40,9 @@ impl SceneSpec {
             return Err(SpecError::Margin(self.margin));
         }
         for (i, b) in self.bodies.iter().enumerate() {
+            if b.name.len() > MAX_NAME_BYTES {
+                return Err(SpecError::NameTooLong { index: i, got: b.name.len(), start: b.name.chars().take(24).collect(), max: MAX_NAME_BYTES });
+            }
             b.validate()?;
             if self.bodies[..i].iter().any(|o| o.name == b.name) {
                 return Err(SpecError::DuplicateName(b.name.clone()));
@@ -174,9 +177,18 @@ mod tests {
         assert_eq!(v.layout(), &StateLayout::of(&spec));
         assert_eq!(ValidScene::try_from(spec.clone()), Ok(v.clone()));
         assert_eq!(v.into_spec(), spec);
-        let mut bad = spec;
+        let mut bad = spec.clone();
         bad.precision = 0;
         assert_eq!(ValidScene::try_from(bad), Err(SpecError::Precision(0)));
+        // A name of MAX_NAME_BYTES is fine; one byte more is refused, without echoing it whole.
+        let mut long = spec.clone();
+        long.bodies[1].name = "s".repeat(MAX_NAME_BYTES);
+        long.pairs[0].a = long.bodies[1].name.clone();
+        assert!(long.validate().is_ok());
+        long.bodies[1].name.push('s');
+        let e = long.validate().unwrap_err();
+        assert_eq!(e, SpecError::NameTooLong { index: 1, got: MAX_NAME_BYTES + 1, start: "s".repeat(24), max: MAX_NAME_BYTES });
+        assert!(e.to_string().len() < 200, "{e}");
     }
 
     #[test]

@@ -127,6 +127,9 @@ fn open(
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }
+    if client.len() > lumen_proto::limits::MAX_NAME_BYTES {
+        return error(ErrorCode::BadRequest, format!("client name of {} bytes; at most {} are allowed", client.len(), lumen_proto::limits::MAX_NAME_BYTES));
+    }
     let scene = match spec.validate() {
         Ok(scene) => scene,
         Err(e) => return error(ErrorCode::Spec, format!("invalid scene spec: {e}")),
@@ -243,6 +246,12 @@ mod tests {
         let ControlReply::Error(e) = handle(&reg, Transport::Iceoryx2, &Requester::Anyone, open_req(spec(10)), |_| Err(DaemonError::Stopped("no shm".into()))) else { panic!() };
         assert_eq!((e.code, reg.len()), (ErrorCode::Internal, 0));
         assert!(matches!(decode(b"{\"op\":\"explode\"}"), Err(ControlReply::Error(ControlError { code: ErrorCode::BadRequest, .. }))));
+        // A client name beyond MAX_NAME_BYTES is refused, naming the limit.
+        let named = |client: String| ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec(10), client, echo: false };
+        let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, &Requester::Anyone, named("c".repeat(129)), |_| Ok(())) else { panic!() };
+        assert_eq!(e.code, ErrorCode::BadRequest);
+        assert!(e.message.contains("client name of 129 bytes; at most 128"), "{}", e.message);
+        assert_eq!(reg.len(), 0);
     }
 
     #[test]

@@ -99,6 +99,26 @@ fn invalid_specs_are_refused_with_a_reason() {
     let e = client.open_session(&scene().spec).err().expect("full");
     assert_eq!(e.code(), Some(lumen_proto::session::ErrorCode::Busy));
     assert_eq!(client.describe(_one.id()).unwrap().max_observers, 2);
+    // Processes that only open the session's services (eight nodes) take no observer's place;
+    // beyond max_observers an observer gets one error that names the limit.
+    let info = client.describe(_one.id()).unwrap();
+    let config = lumen_transport::shm::config(Some(&prefix)).unwrap();
+    let openers: Vec<_> = (0..8)
+        .map(|k| {
+            let node = lumen_transport::shm::node(&config, &format!("opener{k}")).unwrap();
+            let frame = lumen_transport::shm::open_frame(&node, &info.frame).unwrap_or_else(|e| panic!("opener {k}: {e}"));
+            let contacts = lumen_transport::shm::open_contacts(&node, &info.contacts).unwrap_or_else(|e| panic!("opener {k}: {e}"));
+            (frame, contacts, node)
+        })
+        .collect();
+    let watcher = Client::local_with(LocalOptions { prefix: Some(prefix.clone()), name: None }).unwrap();
+    let observers: Vec<_> = (0..2).map(|k| watcher.observe(_one.id()).unwrap_or_else(|e| panic!("observer {k} of 2: {e}"))).collect();
+    match watcher.observe(_one.id()) {
+        Err(Error::ObserversFull { session, max }) => assert_eq!((session, max), (_one.id(), 2)),
+        Err(e) => panic!("a third observer: {e}"),
+        Ok(_) => panic!("a third observer was admitted"),
+    }
+    drop((observers, openers));
     let none = unique_prefix("none");
     let e = Client::local_with(LocalOptions { prefix: Some(none.clone()), name: None }).unwrap().open_session(&scene().spec).err().unwrap();
     assert!(matches!(e, Error::NoDaemon { .. }), "{e}");

@@ -21,6 +21,10 @@ pub enum TransportError {
     /// An iceoryx2 call failed (shared memory exhausted, permissions, incompatible service...).
     #[error("iceoryx2: {what}: {source}")]
     Iceoryx2 { what: String, source: Box<dyn StdError + Send + Sync> },
+    /// A session's iceoryx2 channel admits no more processes or ports (`max_nodes`,
+    /// subscribers, listeners: sized by the daemon's `limits.max_observers`).
+    #[error("iceoryx2: {what}: the channel is full (it admits the session's client and limits.max_observers observers)")]
+    Full { what: String },
     /// A zenoh call failed (endpoint unreachable, bad configuration...).
     #[error("zenoh: {what}: {source}")]
     Zenoh { what: String, source: Box<dyn StdError + Send + Sync> },

@@ -8,6 +8,8 @@
 
 use crate::TransportError;
 use iceoryx2::prelude::*;
+use iceoryx2::service::builder::event::EventOpenError;
+use iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenError;
 use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
 use lumen_proto::wire::{ContactsHeader, FrameHeader};
 use lumen_proto::Contact;
@@ -96,19 +98,42 @@ pub fn service_name(name: &str) -> Result<ServiceName, TransportError> {
     ServiceName::new(name).map_err(|e| iox(format!("service name {name:?}"), e))
 }
 
+/// A service that admits no more nodes is [`TransportError::Full`]; other failures keep their
+/// source.
+fn open_error(what: &str, e: PublishSubscribeOpenError) -> TransportError {
+    match e {
+        PublishSubscribeOpenError::ExceedsMaxNumberOfNodes => TransportError::Full { what: what.into() },
+        e => iox(what, e),
+    }
+}
+
+/// [`open_error`] for event services.
+fn event_open_error(what: &str, e: EventOpenError) -> TransportError {
+    match e {
+        EventOpenError::ExceedsMaxNumberOfNodes => TransportError::Full { what: what.into() },
+        e => iox(what, e),
+    }
+}
+
+/// Processes beyond the client and its observers that may hold a session's services open
+/// without a port (a process that only opens them, as a tool listing services does): iceoryx2
+/// counts every opener against `max_nodes`, so without room for them five such processes once
+/// locked the session's own client out.
+pub const SPARE_NODES: usize = 32;
+
 /// Opens a session's frame service and its event service.
 pub fn open_frame(node: &Node<Svc>, name: &str) -> Result<(FrameService, EventService), TransportError> {
     let n = service_name(name)?;
-    let ps = node.service_builder(&n).publish_subscribe::<[f32]>().user_header::<FrameHeader>().open().map_err(|e| iox("opening the frame service", e))?;
-    let ev = node.service_builder(&n).event().open().map_err(|e| iox("opening the frame event", e))?;
+    let ps = node.service_builder(&n).publish_subscribe::<[f32]>().user_header::<FrameHeader>().open().map_err(|e| open_error("opening the frame service", e))?;
+    let ev = node.service_builder(&n).event().open().map_err(|e| event_open_error("opening the frame event", e))?;
     Ok((ps, ev))
 }
 
 /// Opens a session's contacts service and its event service.
 pub fn open_contacts(node: &Node<Svc>, name: &str) -> Result<(ContactsService, EventService), TransportError> {
     let n = service_name(name)?;
-    let ps = node.service_builder(&n).publish_subscribe::<[Contact]>().user_header::<ContactsHeader>().open().map_err(|e| iox("opening the contacts service", e))?;
-    let ev = node.service_builder(&n).event().open().map_err(|e| iox("opening the contacts event", e))?;
+    let ps = node.service_builder(&n).publish_subscribe::<[Contact]>().user_header::<ContactsHeader>().open().map_err(|e| open_error("opening the contacts service", e))?;
+    let ev = node.service_builder(&n).event().open().map_err(|e| event_open_error("opening the contacts event", e))?;
     Ok((ps, ev))
 }
 
@@ -132,7 +157,7 @@ where
         .subscriber_max_borrowed_samples(qos.borrowed)
         .history_size(0)
         .enable_safe_overflow(true)
-        .max_nodes(qos.subscribers + 1)
+        .max_nodes(qos.subscribers + 1 + SPARE_NODES)
         .create()
         .map_err(|e| iox(format!("creating the {what} service"), e))?;
     let events = node
@@ -140,7 +165,7 @@ where
         .event()
         .max_notifiers(1)
         .max_listeners(qos.subscribers)
-        .max_nodes(qos.subscribers + 1)
+        .max_nodes(qos.subscribers + 1 + SPARE_NODES)
         .notifier_dead_event(EVENT_PEER_DIED)
         .create()
         .map_err(|e| iox(format!("creating the {what} event"), e))?;
