@@ -193,8 +193,9 @@ pub struct SessionStatus {
     pub bad_frames: u64,
     /// Frames skipped because a newer one had arrived.
     pub skipped: u64,
-    /// Zenoh: messages on the session's frame key that did not prove ownership (no tag, or a
-    /// wrong one): dropped, never answered.
+    /// Frames that did not come from the session's owner, dropped and never answered: over
+    /// zenoh messages on its frame key without the owner's tag, over iceoryx2 frames of a
+    /// publisher of another node than the opener's.
     #[serde(default)]
     pub forged: u64,
     /// Frames per second over the last few seconds.

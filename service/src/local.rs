@@ -6,6 +6,7 @@ use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
 use crate::registry::Registry;
+use iceoryx2::identifiers::{UniqueNodeId, UniquePublisherId};
 use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
 use lumen_proto::session::{ControlReply, Transport};
@@ -87,9 +88,19 @@ impl Local {
                         break;
                     }
                 };
+                // The opener's node: only a frame publisher of that node is the session's client.
+                let origin = request.origin();
+                let mut opener = None;
+                service.dynamic_config().list_clients(|d| {
+                    if d.client_id == origin {
+                        opener = Some(d.node_id);
+                        return CallbackProgression::Stop;
+                    }
+                    CallbackProgression::Continue
+                });
                 let reply = match control::decode(request.payload()) {
                     Ok(req) => control::handle(&self.registry, Transport::Iceoryx2, &crate::access::Requester::Anyone, req, |plan| {
-                        let (h, r) = start_session(cfg.clone(), plan, self.registry.clone())?;
+                        let (h, r) = start_session(cfg.clone(), plan, opener, self.registry.clone())?;
                         sessions.push(h);
                         r
                     }),
@@ -127,9 +138,11 @@ impl Local {
 }
 
 /// Starts a session's thread; the inner result says whether its channels were created.
-fn start_session(cfg: Config, plan: Plan, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), DaemonError>), DaemonError> {
+/// `opener` is the node of the process that asked for the session (`None` if iceoryx2 no
+/// longer lists its control client).
+fn start_session(cfg: Config, plan: Plan, opener: Option<UniqueNodeId>, registry: Arc<Registry>) -> Result<(JoinHandle<()>, Result<(), DaemonError>), DaemonError> {
     let id = plan.entry.info.session;
-    crate::registry::spawn_session("iox2-s", id, registry, move |registry, tx| run_session(&cfg, plan, registry, tx))
+    crate::registry::spawn_session("iox2-s", id, registry, move |registry, tx| run_session(&cfg, plan, opener, registry, tx))
 }
 
 /// A session's services and ports.
@@ -140,10 +153,16 @@ struct Channels {
     publisher: iceoryx2::port::publisher::Publisher<Svc, [Contact], ContactsHeader>,
     notifier: iceoryx2::port::notifier::Notifier<Svc>,
     _events: (EventService, EventService, ContactsService),
+    /// The node of the process that opened the session: its frame publisher is the client.
+    /// Frames of any other publisher are dropped, counted and never answered. `None`: the
+    /// opener could not be told (any publisher is the client, as before owners were checked).
+    opener: Option<UniqueNodeId>,
+    /// The publisher found to be the opener's, once seen.
+    owner: std::cell::Cell<Option<UniquePublisherId>>,
 }
 
 impl Channels {
-    fn create(node: &Node<Svc>, plan: &Plan, observers: usize) -> Result<Self, DaemonError> {
+    fn create(node: &Node<Svc>, plan: &Plan, opener: Option<UniqueNodeId>, observers: usize) -> Result<Self, DaemonError> {
         let info = &plan.entry.info;
         let (frame_qos, contacts_qos) = (ChannelQos::frames(observers), ChannelQos::contacts(observers));
         let (frames, frame_events) = create_channel::<f32, FrameHeader>(node, &info.frame, "frame", frame_qos)?;
@@ -158,21 +177,55 @@ impl Channels {
             .create()
             .map_err(|x| iox("creating the contacts publisher", x))?;
         let notifier = contact_events.notifier_builder().default_event_id(EVENT_SENT).create().map_err(|x| iox("creating the contacts notifier", x))?;
-        Ok(Self { frames, subscriber, listener, publisher, notifier, _events: (frame_events, contact_events, contacts) })
+        Ok(Self { frames, subscriber, listener, publisher, notifier, _events: (frame_events, contact_events, contacts), opener, owner: std::cell::Cell::new(None) })
+    }
+
+    /// Whether `publisher` is the session's client: a publisher of the opener's node.
+    fn is_owner(&self, publisher: UniquePublisherId) -> bool {
+        let Some(opener) = self.opener else { return true };
+        if self.owner.get() == Some(publisher) {
+            return true;
+        }
+        let mut of_opener = false;
+        self.frames.dynamic_config().list_publishers(|d| {
+            if d.publisher_id == publisher {
+                of_opener = d.node_id == opener;
+                return CallbackProgression::Stop;
+            }
+            CallbackProgression::Continue
+        });
+        if of_opener {
+            self.owner.set(Some(publisher));
+        }
+        of_opener
     }
 
     /// Answers the newest waiting frame, if any; returns whether there was one.
     fn serve(&self, engine: &mut Engine) -> bool {
         let received = Instant::now();
         let mut newest = None;
+        let mut forged = 0;
         loop {
             match self.subscriber.receive() {
+                // Each publisher has a queue of its own: another process's samples never push
+                // the client's out, and are dropped here unanswered.
+                Ok(Some(s)) if !self.is_owner(s.origin()) => forged += 1,
                 Ok(Some(s)) => newest = Some(s),
                 Ok(None) => break,
                 Err(e) => {
                     tracing::warn!("session {}: receiving a frame: {e:?}", engine.id);
                     break;
                 }
+            }
+        }
+        if forged > 0 {
+            let total = {
+                let mut st = engine.entry.stats.lock().expect("stats lock");
+                st.forged += forged;
+                st.forged
+            };
+            if (total - forged + 1..=total).any(u64::is_power_of_two) {
+                tracing::warn!("session {}: dropped {total} frame(s) published by a process other than its opener", engine.id);
             }
         }
         let Some(sample) = newest else { return false };
@@ -209,8 +262,11 @@ impl Channels {
     fn client(&self) -> ClientState {
         let mut publisher_node = None;
         self.frames.dynamic_config().list_publishers(|d| {
-            publisher_node = Some(d.node_id);
-            CallbackProgression::Stop
+            if self.opener.is_none_or(|o| o == d.node_id) {
+                publisher_node = Some(d.node_id);
+                return CallbackProgression::Stop;
+            }
+            CallbackProgression::Continue
         });
         let Some(client) = publisher_node else { return ClientState::Absent };
         let mut dead = None;
@@ -244,10 +300,10 @@ enum ClientState {
     Dead,
 }
 
-fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> {
+fn run_session(cfg: &Config, plan: Plan, opener: Option<UniqueNodeId>, registry: &Registry, ready: &mpsc::Sender<Result<(), DaemonError>>) -> Result<&'static str, DaemonError> {
     let id = plan.entry.info.session;
     let node = node(cfg, &format!("lumen-session-{id}"))?;
-    let channels = Channels::create(&node, &plan, registry.limits.max_observers)?;
+    let channels = Channels::create(&node, &plan, opener, registry.limits.max_observers)?;
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;
     let on_frame = waitset.attach_notification(&channels.listener).map_err(|e| iox("attaching", e))?;
@@ -269,8 +325,9 @@ fn run_session(cfg: &Config, plan: Plan, registry: &Registry, ready: &mpsc::Send
             }
             if peer_died || wake.has_event_from(&on_tick) {
                 engine.tick();
-                // The frame event has one notifier, the client's: its death event is the client's.
-                let client = if peer_died { ClientState::Dead } else { channels.client() };
+                // Any process may notify the frame event, "a peer died" too: the client's own
+                // publisher and process say whether it is gone.
+                let client = channels.client();
                 match client {
                     ClientState::Present => attached = true,
                     ClientState::Dead => {

@@ -396,3 +396,49 @@ fn a_closed_sessions_slot_is_free_when_the_close_is_answered() {
         s.close().unwrap_or_else(|e| panic!("cycle {k}: {e}"));
     }
 }
+
+#[test]
+fn a_strangers_publisher_and_peer_died_events_change_nothing() {
+    // Issue 16: over iceoryx2 a process could take a session's one frame-publisher slot, and
+    // its "a peer died" event ended the session. The frame channel now admits spare publishers,
+    // the daemon answers only the publisher of the node that opened the session (others are
+    // counted as forged), and a peer-died event makes it look at its client, not end it.
+    let prefix = unique_prefix("istr");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let owner = client(&prefix);
+    let mut s = owner.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
+    let mut round_trip = |s: &mut lumen_client::Session, k: u64| {
+        s.submit_state(&scene.state(k)).unwrap();
+        let r = s.contacts(WAIT).unwrap();
+        assert_eq!((r.frame(), r.result()), (k, Ok(())), "the owner's own reply");
+        assert!(same_bits(r.contacts(), reference.detect(&scene.state(k)).unwrap()), "frame {k}");
+    };
+    round_trip(&mut s, 0);
+    let config = lumen_transport::shm::config(Some(&prefix)).unwrap();
+    let node = lumen_transport::shm::node(&config, "stranger").unwrap();
+    let (frame, event) = lumen_transport::shm::open_frame(&node, &s.info().frame).unwrap();
+    let floats = s.layout().floats;
+    let publisher = frame.publisher_builder().initial_max_slice_len(floats).create().expect("a second publisher is admitted");
+    let notifier = event.notifier_builder().create().expect("a second notifier is admitted");
+    for k in 0..5u64 {
+        let mut sample = publisher.loan_slice_uninit(floats).unwrap();
+        *sample.user_header_mut() = lumen_proto::wire::FrameHeader::new(s.id(), (1 << 62) + k, 0, floats, 2);
+        sample.write_from_fn(|_| 0.0).send().unwrap();
+        notifier.notify_with_custom_event_id(lumen_transport::shm::EVENT_SENT).unwrap();
+    }
+    notifier.notify_with_custom_event_id(lumen_transport::shm::EVENT_PEER_DIED).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(s.try_contacts().unwrap().is_none(), "nothing answered the stranger's frames");
+    for k in 1..20 {
+        round_trip(&mut s, k);
+    }
+    let status = || owner.status().unwrap().sessions.into_iter().find(|x| x.session == s.id());
+    assert!(eventually(WAIT, || status().is_some_and(|x| x.frames == 20)), "the session lives on");
+    let st = status().unwrap();
+    // Each publisher's queue holds its newest frame only, so of the five sent back to back some
+    // are overwritten before the daemon looks: it counts those it saw and answers none.
+    assert_eq!((st.frames, st.bad_frames), (20, 0));
+    assert!((1..=5).contains(&st.forged), "forged {}", st.forged);
+}

@@ -48,6 +48,10 @@ pub const CONTACTS_BORROWED: usize = 2;
 /// The QoS of one of a session's channels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ChannelQos {
+    /// Publishers (and notifiers of the event service): the frame channel admits the client's
+    /// and [`SPARE_PUBLISHERS`] more, so no other process can take the client's place by
+    /// creating one first (the daemon answers only the opener's; `lumen-service`'s `local`).
+    pub publishers: usize,
     /// Subscribers: the session's other side and every observer.
     pub subscribers: usize,
     /// Samples kept per subscriber.
@@ -59,12 +63,12 @@ pub struct ChannelQos {
 impl ChannelQos {
     /// The frame channel of a session with `observers` observers.
     pub fn frames(observers: usize) -> Self {
-        Self { subscribers: 1 + observers, buffer: FRAME_BUFFER, borrowed: FRAME_BORROWED }
+        Self { publishers: 1 + SPARE_PUBLISHERS, subscribers: 1 + observers, buffer: FRAME_BUFFER, borrowed: FRAME_BORROWED }
     }
 
     /// The contacts channel of a session with `observers` observers.
     pub fn contacts(observers: usize) -> Self {
-        Self { subscribers: 1 + observers, buffer: CONTACTS_BUFFER, borrowed: CONTACTS_BORROWED }
+        Self { publishers: 1, subscribers: 1 + observers, buffer: CONTACTS_BUFFER, borrowed: CONTACTS_BORROWED }
     }
 
     /// Samples the publisher's segment must hold: every subscriber's buffer and borrowed
@@ -121,6 +125,10 @@ fn event_open_error(what: &str, e: EventOpenError) -> TransportError {
 /// locked the session's own client out.
 pub const SPARE_NODES: usize = 32;
 
+/// Frame publishers beyond the client's a session's frame channel admits (see
+/// [`ChannelQos::publishers`]).
+pub const SPARE_PUBLISHERS: usize = 8;
+
 /// Opens a session's frame service and its event service.
 pub fn open_frame(node: &Node<Svc>, name: &str) -> Result<(FrameService, EventService), TransportError> {
     let n = service_name(name)?;
@@ -151,7 +159,7 @@ where
         .service_builder(&name)
         .publish_subscribe::<[T]>()
         .user_header::<H>()
-        .max_publishers(1)
+        .max_publishers(qos.publishers)
         .max_subscribers(qos.subscribers)
         .subscriber_max_buffer_size(qos.buffer)
         .subscriber_max_borrowed_samples(qos.borrowed)
@@ -163,7 +171,7 @@ where
     let events = node
         .service_builder(&name)
         .event()
-        .max_notifiers(1)
+        .max_notifiers(qos.publishers)
         .max_listeners(qos.subscribers)
         .max_nodes(qos.subscribers + 1 + SPARE_NODES)
         .notifier_dead_event(EVENT_PEER_DIED)
