@@ -27,25 +27,42 @@ fn child_role() {
 /// This test binary re-run as a deliberately slow observer of session `LUMEN_E2E_OBSERVE`: a
 /// raw zenoh subscriber to the session's observer keys whose callback sleeps half a second per
 /// sample (it blocks its zenoh session's receiving thread, so its link backs up), as a careless
-/// VR front-end might. Prints `observing`, then `saw N` per sample; ends when stdin closes.
+/// VR front-end might. Subscribes and prints `observing` at start and on a stdin line `on`,
+/// drops its subscriber and prints `paused` on `off`; when stdin closes, prints `saw N` (the
+/// samples its callback got) and ends.
 #[test]
 fn slow_observer_role() {
     let (Ok(endpoint), Ok(session)) = (std::env::var("LUMEN_E2E_ENDPOINT"), std::env::var("LUMEN_E2E_OBSERVE")) else { return };
     let config = lumen_transport::net::config("client", &[], &[endpoint]).unwrap();
     let z = zenoh::open(config).wait().unwrap();
     let key = format!("lumen/session/{session}/observe/*");
-    let seen = std::sync::atomic::AtomicUsize::new(0);
-    let _sub = z
-        .declare_subscriber(key)
-        .callback(move |_| {
-            let n = seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            println!("saw {n}");
-            std::thread::sleep(Duration::from_millis(500));
-        })
-        .wait()
-        .unwrap();
+    let seen = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let subscribe = || {
+        let seen = seen.clone();
+        z.declare_subscriber(key.clone())
+            .callback(move |_| {
+                seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                std::thread::sleep(Duration::from_millis(500));
+            })
+            .wait()
+            .unwrap()
+    };
+    let mut sub = Some(subscribe());
     println!("\nobserving"); // on a line of its own: the test harness left "test ... " open
-    let _ = std::io::Read::read_to_end(&mut std::io::stdin(), &mut Vec::new());
+    for line in std::io::BufRead::lines(std::io::stdin().lock()).map_while(Result::ok) {
+        match line.trim() {
+            "on" => {
+                sub.get_or_insert_with(subscribe);
+                println!("observing");
+            }
+            "off" => {
+                drop(sub.take());
+                println!("paused");
+            }
+            _ => {}
+        }
+    }
+    println!("saw {}", seen.load(std::sync::atomic::Ordering::Relaxed));
 }
 
 /// Frames per second of `frames` round trips of session `s`.
@@ -66,19 +83,36 @@ fn a_slow_observer_does_not_slow_the_client() {
     let client = Client::zenoh(&d.endpoint()).unwrap();
     let mut s = client.open_session(&scene.spec).unwrap();
     frame_rate(&mut s, &scene, 50); // warm-up
-    let alone = frame_rate(&mut s, &scene, 400);
     let id = s.id().to_string();
     let endpoint = d.endpoint();
     let mut observer = lumen_e2e::spawn_client_role("slow_observer_role", &[("LUMEN_E2E_ENDPOINT", endpoint.as_str()), ("LUMEN_E2E_OBSERVE", id.as_str())]);
     assert!(observer.line_starting("observing", Duration::from_secs(20)).is_some(), "the observer did not start");
-    std::thread::sleep(Duration::from_millis(300)); // its subscription reaches the daemon
-    let watched = frame_rate(&mut s, &scene, 400);
-    assert!(observer.line_starting("saw 2", Duration::from_secs(5)).is_some(), "the slow observer saw nothing: the test proves nothing");
-    eprintln!("client frame rate: {alone:.0}/s alone, {watched:.0}/s beside an observer that sleeps 0.5 s per sample");
+    // Alone and watched, alternated three times (the other tests of this binary share the
+    // cores and come and go): the medians are compared.
+    let say = |observer: &mut lumen_e2e::ChildProcess, what: &str, ack: &str| {
+        std::io::Write::write_all(observer.child.stdin.as_mut().expect("piped"), format!("{what}\n").as_bytes()).unwrap();
+        assert!(observer.line_starting(ack, Duration::from_secs(10)).is_some(), "the observer did not answer {what}");
+        std::thread::sleep(Duration::from_millis(300)); // the (un)subscription reaches the daemon
+    };
+    let (mut alone, mut watched) = (Vec::new(), Vec::new());
+    for _ in 0..3 {
+        say(&mut observer, "off", "paused");
+        alone.push(frame_rate(&mut s, &scene, 200));
+        say(&mut observer, "on", "observing");
+        watched.push(frame_rate(&mut s, &scene, 200));
+    }
+    observer.close_stdin();
+    let saw: usize = observer.line_starting("saw ", Duration::from_secs(10)).expect("the observer's count")["saw ".len()..].trim().parse().unwrap();
+    assert!(saw >= 2, "the slow observer saw {saw} samples: the test proves nothing");
+    assert!(observer.wait_exit(Duration::from_secs(10)).is_some());
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[1]
+    };
+    let (alone, watched) = (median(&mut alone), median(&mut watched));
+    eprintln!("client frame rate, medians of 3 alternated windows: {alone:.0}/s alone, {watched:.0}/s beside an observer that sleeps 0.5 s per sample");
     // Before observers had droppable keys of their own: 485 frames/s fell to 15.
     assert!(watched > 0.5 * alone, "{watched:.0}/s beside the slow observer, {alone:.0}/s alone");
-    observer.close_stdin();
-    assert!(observer.wait_exit(Duration::from_secs(10)).is_some());
 }
 
 #[test]
