@@ -74,8 +74,7 @@ impl ZenohClient {
 
     /// Every daemon's name and load (each daemon on the network answers).
     pub fn daemons(&self, timeout: Duration) -> Result<Vec<DaemonInfo>, Error> {
-        let all = request_all(&self.session, &self.route, &ControlRequest::Hello, timeout)?;
-        Ok(all.into_iter().filter_map(|r| if let ControlReply::Hello(d) = r { Some(d) } else { None }).collect())
+        daemons_on(&self.session, &self.route, timeout)
     }
 
     /// Every daemon's status report (each daemon on the network answers).
@@ -167,6 +166,11 @@ fn request_all(session: &zenoh::Session, route: &Route, request: &ControlRequest
     Ok(all)
 }
 
+/// Every daemon's answer to `hello`.
+fn daemons_on(session: &zenoh::Session, route: &Route, timeout: Duration) -> Result<Vec<DaemonInfo>, Error> {
+    Ok(request_all(session, route, &ControlRequest::Hello, timeout)?.into_iter().filter_map(|r| if let ControlReply::Hello(d) = r { Some(d) } else { None }).collect())
+}
+
 /// A request about one session asked of every daemon: the reply of the one that has the
 /// session, else the first (an unknown session).
 fn about_a_session(session: &zenoh::Session, route: &Route, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
@@ -179,8 +183,7 @@ fn about_a_session(session: &zenoh::Session, route: &Route, request: &ControlReq
 /// the first name), or `None` where no daemon gives its name (one that predates names: the
 /// open then goes to the nearest daemon).
 fn least_loaded(session: &zenoh::Session, route: &Route, timeout: Duration) -> Result<Option<String>, Error> {
-    let daemons: Vec<DaemonInfo> = request_all(session, route, &ControlRequest::Hello, timeout)?.into_iter().filter_map(|r| if let ControlReply::Hello(d) = r { Some(d) } else { None }).collect();
-    Ok(daemons.into_iter().min_by_key(|d| (std::cmp::Reverse(d.max_sessions.saturating_sub(d.sessions)), d.sessions, d.daemon.clone())).map(|d| d.daemon))
+    Ok(daemons_on(session, route, timeout)?.into_iter().min_by_key(|d| (std::cmp::Reverse(d.max_sessions.saturating_sub(d.sessions)), d.sessions, d.daemon.clone())).map(|d| d.daemon))
 }
 
 /// Whether a control reply says the session asked about does not exist.

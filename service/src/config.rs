@@ -212,7 +212,7 @@ impl ServeConfig {
             return Err(ConfigError::Invalid(format!("zenoh mode {:?}: use \"router\" or \"peer\"", self.zenoh.mode)));
         }
         if let Some(n) = &self.zenoh.name {
-            if !lumen_transport::names::is_key_chunk(n) || n.contains(['=', '&', ';']) {
+            if !lumen_transport::names::is_daemon_name(n) {
                 return Err(ConfigError::Invalid(format!("[zenoh] name {n:?}: a daemon's name must be one zenoh key chunk (non-empty, none of / * $ # ? = & ;)")));
             }
         }

@@ -6,9 +6,10 @@ use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
 use crate::registry::Registry;
-use iceoryx2::identifiers::{UniqueNodeId, UniquePublisherId};
+use iceoryx2::identifiers::{UniqueClientId, UniqueNodeId, UniquePublisherId};
 use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
+use iceoryx2::service::port_factory::request_response;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{ContactsHeader, FrameHeader};
 use lumen_proto::Contact;
@@ -88,18 +89,10 @@ impl Local {
                         break;
                     }
                 };
-                // The opener's node: only a frame publisher of that node is the session's client.
-                let origin = request.origin();
-                let mut opener = None;
-                service.dynamic_config().list_clients(|d| {
-                    if d.client_id == origin {
-                        opener = Some(d.node_id);
-                        return CallbackProgression::Stop;
-                    }
-                    CallbackProgression::Continue
-                });
                 let reply = match control::decode(request.payload()) {
                     Ok(req) => control::handle(&self.registry, Transport::Iceoryx2, &crate::access::Requester::Anyone, req, |plan| {
+                        // Only a frame publisher of the opener's node is the session's client.
+                        let opener = node_of_client(&service, request.origin());
                         let (h, r) = start_session(cfg.clone(), plan, opener, self.registry.clone())?;
                         sessions.push(h);
                         r
@@ -135,6 +128,19 @@ impl Local {
         }
         result.map(|_| ()).map_err(|e| iox("control waitset", e))
     }
+}
+
+/// The node of the control client `client` (`None` if iceoryx2 no longer lists it).
+fn node_of_client(service: &request_response::PortFactory<Svc, [u8], (), [u8], ()>, client: UniqueClientId) -> Option<UniqueNodeId> {
+    let mut node = None;
+    service.dynamic_config().list_clients(|d| {
+        if d.client_id == client {
+            node = Some(d.node_id);
+            return CallbackProgression::Stop;
+        }
+        CallbackProgression::Continue
+    });
+    node
 }
 
 /// Starts a session's thread; the inner result says whether its channels were created.
@@ -219,14 +225,7 @@ impl Channels {
             }
         }
         if forged > 0 {
-            let total = {
-                let mut st = engine.entry.stats.lock().expect("stats lock");
-                st.forged += forged;
-                st.forged
-            };
-            if (total - forged + 1..=total).any(u64::is_power_of_two) {
-                tracing::warn!("session {}: dropped {total} frame(s) published by a process other than its opener", engine.id);
-            }
+            engine.entry.count_forged(forged, "frame(s) published by a process other than its opener");
         }
         let Some(sample) = newest else { return false };
         // The frame is read where the client wrote it: no copy.

@@ -20,6 +20,12 @@ pub fn is_key_chunk(s: &str) -> bool {
     !s.is_empty() && !s.contains(['/', '*', '$', '#', '?'])
 }
 
+/// Whether `s` can be a daemon's name: one key chunk ([`is_key_chunk`]) without the selector's
+/// `= & ;`, since a name travels as the selector parameter [`DAEMON_PARAMETER`].
+pub fn is_daemon_name(s: &str) -> bool {
+    is_key_chunk(s) && !s.contains(['=', '&', ';'])
+}
+
 /// Zenoh liveliness token daemon `name` holds while it runs (`lumen/daemon/<name>`); a client
 /// watches its session's daemon's (the session info's `daemon`).
 pub fn daemon_alive_name(name: &str) -> String {
@@ -84,5 +90,6 @@ mod tests {
         assert_eq!((CONTROL, daemon_alive_name("lab-1").as_str(), DAEMONS_ALIVE), ("lumen/control", "lumen/daemon/lab-1", "lumen/daemon/*"));
         assert_eq!(control_name_for("physics-a"), "lumen/control/physics-a");
         assert!(is_key_chunk("physics-a.lab") && !is_key_chunk("a/b") && !is_key_chunk("") && !is_key_chunk("a*"));
+        assert!(is_daemon_name("gpu-1.lab") && !is_daemon_name("a=b") && !is_daemon_name("a&b") && !is_daemon_name("a;b") && !is_daemon_name("a/b"));
     }
 }
