@@ -6,7 +6,7 @@ use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, ControlRequest, DaemonInfo, ErrorCode, SessionInfo, StatusReport, Transport};
-use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, FRAME_HEADER_BYTES};
+use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::{daemon_alive_name, observe_contacts_name, observe_frame_name, session_live_name, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER};
 use lumen_transport::net::{config, tagged_queue, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
@@ -218,7 +218,7 @@ impl Channels {
     fn declare(z: &zenoh::Session, info: &SessionInfo, secret: Secret, forged: Arc<AtomicU64>) -> Result<Self, Error> {
         // The key the opened reply named (its last chunk comes from the secret).
         let token = z.liveliness().declare_token(info.alive.clone()).wait().map_err(|e| Error::zenoh("declaring the session's liveliness token", e))?;
-        let (gate, handler) = tagged_queue(CONTACTS_QUEUE, secret, move || {
+        let (gate, handler) = tagged_queue(CONTACTS_QUEUE, secret, CONTACTS_HEADER_BYTES, move || {
             forged.fetch_add(1, Ordering::Relaxed);
         });
         let replies = z.declare_subscriber(info.contacts.clone()).with((gate, handler)).wait().map_err(|e| Error::zenoh("subscribing to contacts", e))?;
@@ -366,8 +366,9 @@ impl ZenohSession {
         // zenoh owns what it sends: one buffer per frame.
         let mut bytes = Vec::with_capacity(FRAME_HEADER_BYTES + 4 * self.state.len());
         encode_frame(&header, &self.state, &mut bytes);
-        // The tag proves the frame is the owner's (the daemon drops frames without it).
-        let tag = self.secret.tag([bytes.as_slice()]);
+        // The tag proves the frame is the owner's (the daemon drops frames without it, and
+        // frames whose number does not go up).
+        let tag = self.secret.message_tag(&bytes[..FRAME_HEADER_BYTES], bytes.len());
         self.channels.as_ref().expect("open").publisher.put(bytes).attachment(tag.to_vec()).wait().map_err(|e| Error::zenoh("sending the frame", e))?;
         self.frame_no += 1;
         Ok(n)

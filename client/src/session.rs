@@ -98,7 +98,9 @@ impl Session {
     }
 
     /// Like [`Session::submit`], letting `edit` change the header first (tools and tests that
-    /// need a malformed frame; normal clients never need it).
+    /// need a malformed frame; normal clients never need it). Over zenoh a frame whose number
+    /// is not greater than the last one sent in this session is dropped by the daemon as a
+    /// replay and never answered (`proto/README.md`, section 6).
     pub fn submit_with(&mut self, edit: impl FnOnce(&mut lumen_proto::wire::FrameHeader)) -> Result<u64, Error> {
         match &mut self.inner {
             Inner::Local(s) => s.submit(edit),

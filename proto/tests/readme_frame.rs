@@ -37,7 +37,8 @@ fn section_6_worked_example_is_what_the_code_computes() {
     assert!(section.contains("`000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f`"));
     assert_eq!(blocks[0], secret.close_proof(42));
     assert_eq!(blocks[1], format!("lumen/session/42/client/{}", secret.alive_chunk(42)));
-    let tag: String = secret.tag([readme_hex_frame().as_slice()]).iter().map(|b| format!("{b:02x}")).collect();
+    let frame = readme_hex_frame();
+    let tag: String = secret.message_tag(&frame[..FRAME_HEADER_BYTES], frame.len()).iter().map(|b| format!("{b:02x}")).collect();
     assert_eq!(blocks[2], tag);
     assert!(secret.verify_close(42, blocks[0]));
     assert!(!secret.verify_close(43, blocks[0]));

@@ -234,6 +234,7 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
     let mut rng = fastrand::Rng::with_seed(4);
     let good = scene.state(0);
     let mut statuses = std::collections::HashMap::new();
+    let mut short = 0u64;
     for i in 0..150u64 {
         let payload: Vec<u8> = match i % 6 {
             0 => (0..rng.usize(0..FRAME_HEADER_BYTES)).map(|_| rng.u8(..)).collect(),
@@ -267,11 +268,21 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
                 v
             }
         };
-        // Tagged with the owner's secret: a buggy owner, not a stranger (whose frames are
-        // dropped unanswered: `a_strangers_close_frames_and_replies_all_fail`).
-        let tag = secret.tag([payload.as_slice()]);
+        // Tagged with the owner's secret and numbered in order: a buggy owner, not a stranger
+        // (whose frames are dropped unanswered: `a_strangers_close_frames_and_replies_all_fail`).
+        // A message shorter than a header carries no frame number, so no proof: dropped.
+        let mut payload = payload;
+        if payload.len() < FRAME_HEADER_BYTES {
+            let tag = secret.tag([payload.as_slice()]);
+            raw.put(key.clone(), payload).attachment(tag.to_vec()).wait().unwrap();
+            short += 1;
+            continue;
+        }
+        payload[16..24].copy_from_slice(&i.to_le_bytes());
+        let tag = secret.message_tag(&payload[..FRAME_HEADER_BYTES], payload.len());
         raw.put(key.clone(), payload).attachment(tag.to_vec()).wait().unwrap();
-        let r = victim.contacts(WAIT).expect("every fuzz frame gets a reply");
+        let r = victim.contacts(WAIT).expect("every fuzz frame of a header or more gets a reply");
+        assert_eq!(r.frame(), i, "the reply names the frame's number, whatever else is wrong");
         let status = r.result().expect_err("no random frame is valid").0;
         *statuses.entry(status).or_insert(0) += 1;
         // The other session is unaffected, frame by frame.
@@ -286,14 +297,17 @@ fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
     for s in [Status::Malformed, Status::BadLength, Status::NonFinite] {
         assert!(statuses.get(&s).copied().unwrap_or(0) > 0, "{s:?} never seen: {statuses:?}");
     }
-    // The victim's session still works.
-    victim.submit_state(&good).unwrap();
+    assert!(short >= 25, "every sixth message is shorter than a header");
+    // The victim's session still works, numbered past the fuzz frames.
+    victim.frame().unwrap().copy_from_slice(&good);
+    victim.submit_with(|h| h.frame = 1000).unwrap();
     let r = victim.contacts(WAIT).unwrap();
-    assert_eq!(r.result(), Ok(()));
+    assert_eq!((r.frame(), r.result()), (1000, Ok(())));
     // The daemon counts a frame just after publishing its reply: wait for the count to settle.
-    let counts = || client.status().ok().and_then(|st| st.sessions.iter().find(|x| x.session == victim.id()).map(|v| (v.frames, v.bad_frames)));
-    lumen_e2e::eventually(Duration::from_secs(3), || counts() == Some((151, 150)));
-    assert_eq!(counts(), Some((151, 150)));
+    let counts = || client.status().ok().and_then(|st| st.sessions.iter().find(|x| x.session == victim.id()).map(|v| (v.frames, v.bad_frames, v.forged)));
+    let answered = 150 - short;
+    lumen_e2e::eventually(Duration::from_secs(3), || counts() == Some((answered + 1, answered, short)));
+    assert_eq!(counts(), Some((answered + 1, answered, short)));
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }
 
@@ -439,7 +453,31 @@ fn a_strangers_close_frames_and_replies_all_fail() {
         assert_eq!((r.frame(), r.result()), (k, Ok(())), "the owner's own reply");
         r.contacts().to_vec()
     };
-    assert!(same_bits(&round_trip(&mut s, 0), reference.detect(&scene.state(0)).unwrap()));
+    // The stranger watches the owner's keys: it sees every genuine frame and reply, tag and all.
+    let seen_frames = raw.declare_subscriber(s.info().frame.clone()).wait().unwrap();
+    let seen_replies = raw.declare_subscriber(s.info().contacts.clone()).wait().unwrap();
+    std::thread::sleep(Duration::from_millis(300)); // the subscriptions reach the daemon first
+    let first = round_trip(&mut s, 0);
+    assert!(!first.is_empty(), "frame 0 has contacts to forge");
+    assert!(same_bits(&first, reference.detect(&scene.state(0)).unwrap()));
+    let (frame0, reply0) = (seen_frames.recv_timeout(WAIT).unwrap().unwrap(), seen_replies.recv_timeout(WAIT).unwrap().unwrap());
+    let (frame0_tag, reply0_tag) = (frame0.attachment().unwrap().to_bytes().to_vec(), reply0.attachment().unwrap().to_bytes().to_vec());
+    // Undeclared now: their bounded queues would fill with the flood below and block `raw`.
+    drop((seen_frames, seen_replies));
+    // Replays: frame 0's header and tag with other floats of the same length, and with its
+    // number moved on to 1; reply 0's header and tag with its first contact's depth changed.
+    let mut other_floats = frame0.payload().to_bytes().to_vec();
+    let mut moved_on = other_floats.clone();
+    let mut replaced = Vec::new();
+    encode_frame(&FrameHeader::new(id, 0, 0, s.layout().floats, 2), &scene.state(9), &mut replaced);
+    other_floats[FRAME_HEADER_BYTES..].copy_from_slice(&replaced[FRAME_HEADER_BYTES..]);
+    moved_on[16..24].copy_from_slice(&1u64.to_le_bytes());
+    raw.put(s.info().frame.clone(), other_floats).attachment(frame0_tag.clone()).wait().unwrap();
+    raw.put(s.info().frame.clone(), moved_on).attachment(frame0_tag).wait().unwrap();
+    let mut deeper = reply0.payload().to_bytes().to_vec();
+    let depth_at = lumen_proto::wire::CONTACTS_HEADER_BYTES + std::mem::offset_of!(lumen_proto::Contact, depth);
+    deeper[depth_at..depth_at + 4].copy_from_slice(&(-50.0f32).to_le_bytes());
+    raw.put(s.info().contacts.clone(), deeper).attachment(reply0_tag).wait().unwrap();
     // A close without the proof, or with another secret's, is refused and changes nothing.
     let wrong = Secret::from_bytes([7; 32]);
     for proof in [String::new(), wrong.close_proof(id), "x".repeat(64)] {
@@ -482,12 +520,12 @@ fn a_strangers_close_frames_and_replies_all_fail() {
         total += got.len();
     }
     assert!(total > 0, "the scene's contacts are what the forged replies would have hidden");
-    assert_eq!(s.forged_replies(), 2, "the two forged replies were seen and dropped");
-    // The daemon counted the three frames, answered none of them, and the session lives on.
+    assert_eq!(s.forged_replies(), 3, "the two forged replies and the replayed one were seen and dropped");
+    // The daemon counted the five frames, answered none of them, and the session lives on.
     let status = || owner.status().ok().and_then(|st| st.sessions.into_iter().find(|x| x.session == id));
     assert!(lumen_e2e::eventually(WAIT, || status().is_some_and(|x| x.frames == 20)));
     let st = status().unwrap();
-    assert_eq!((st.frames, st.bad_frames, st.forged), (20, 0, 3));
+    assert_eq!((st.frames, st.bad_frames, st.forged), (20, 0, 5));
     assert!(s.try_contacts().unwrap().is_none(), "nothing answered the stranger's frames");
     // A stranger flooding the frame key while the owner runs cannot push its frames out.
     let stop = std::sync::atomic::AtomicBool::new(false);

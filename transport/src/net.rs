@@ -2,7 +2,8 @@
 //! congestion control of a session's keys, and the tag gate in front of their queues.
 
 use crate::TransportError;
-use lumen_proto::auth::Secret;
+use lumen_proto::auth::{Gate, Secret};
+use std::sync::Mutex;
 use zenoh::handlers::{Callback, IntoHandler, RingChannel, RingChannelHandler};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::Sample;
@@ -46,14 +47,19 @@ pub fn set(config: &mut zenoh::Config, key: &str, value: &str) -> Result<(), Tra
     config.insert_json5(key, value).map_err(|e| TransportError::zenoh(format!("config {key} = {value}"), e))
 }
 
-/// A newest-wins queue of `capacity` samples behind a gate that admits only samples whose
-/// attachment is their payload's tag under `secret` (`proto/README.md`, section 6); each other
-/// sample is handed to `on_forged` and dropped. The gate runs before the queue, so samples
-/// anyone may put on a session's key can never push a genuine one out.
-pub fn tagged_queue(capacity: usize, secret: Secret, on_forged: impl Fn() + Send + Sync + 'static) -> (Callback<Sample>, RingChannelHandler<Sample>) {
+/// The longest header a [`tagged_queue`] reads (a reply's).
+const MAX_HEAD: usize = lumen_proto::wire::CONTACTS_HEADER_BYTES;
+
+/// A newest-wins queue of `capacity` samples behind a [`Gate`] for messages with a `head`-byte
+/// header (`proto/README.md`, section 6): a sample without its owner's tag, or whose frame
+/// number was used before, is handed to `on_forged` and dropped. The gate runs before the
+/// queue, so samples anyone may put on a session's key can never push a genuine one out.
+pub fn tagged_queue(capacity: usize, secret: Secret, head: usize, on_forged: impl Fn() + Send + Sync + 'static) -> (Callback<Sample>, RingChannelHandler<Sample>) {
+    assert!(head <= MAX_HEAD, "headers are at most {MAX_HEAD} bytes");
     let (queue, handler) = RingChannel::new(capacity).into_handler();
+    let gate = Mutex::new(Gate::new(secret, head));
     let gate = Callback::from(move |sample: Sample| {
-        if carries_tag(&secret, &sample) {
+        if admit(&gate, &sample) {
             queue.call(sample);
         } else {
             on_forged();
@@ -62,7 +68,20 @@ pub fn tagged_queue(capacity: usize, secret: Secret, on_forged: impl Fn() + Send
     (gate, handler)
 }
 
-/// Whether `sample`'s attachment is the tag of its payload's bytes under `secret`.
-pub fn carries_tag(secret: &Secret, sample: &Sample) -> bool {
-    sample.attachment().is_some_and(|tag| secret.verify(sample.payload().slices(), &tag.to_bytes()))
+/// Whether `gate` admits `sample` (its header read from zenoh's fragments, no other copy).
+fn admit(gate: &Mutex<Gate>, sample: &Sample) -> bool {
+    let Some(tag) = sample.attachment() else { return false };
+    let mut gate = gate.lock().unwrap_or_else(|p| p.into_inner());
+    let mut head = [0u8; MAX_HEAD];
+    let head = &mut head[..gate.head()];
+    let mut filled = 0;
+    for s in sample.payload().slices() {
+        let n = s.len().min(head.len() - filled);
+        head[filled..filled + n].copy_from_slice(&s[..n]);
+        filled += n;
+        if filled == head.len() {
+            break;
+        }
+    }
+    gate.admit(&head[..filled], sample.payload().len(), &tag.to_bytes())
 }
