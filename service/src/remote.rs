@@ -166,7 +166,9 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     // session. The gate runs before the newest-wins queue, so a stranger's flood can never push
     // the owner's frames out; what it drops is counted and never answered.
     let gate_entry = plan.entry.clone();
-    let (gate, handler) = tagged_queue(FRAME_QUEUE, plan.entry.secret.clone(), FRAME_HEADER_BYTES, move || gate_entry.count_forged(1, "message(s) on its frame key without its owner's tag, or with a frame number used before"));
+    let (gate, handler) = tagged_queue(FRAME_QUEUE, plan.entry.secret.clone(), FRAME_HEADER_BYTES, move || {
+        gate_entry.count_forged(1, "message(s) on its frame key without its owner's tag, or with a frame number used before")
+    });
     let frames = z.declare_subscriber(info.frame.clone()).with((gate, handler)).wait().map_err(|e| TransportError::zenoh(format!("subscribing to {}", info.frame), e))?;
     let publisher = z.declare_publisher(info.contacts.clone()).congestion_control(CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {}", info.contacts), e))?;
     // The client's token is on a key only the owner can name (its last chunk comes from the
