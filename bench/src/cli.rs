@@ -75,6 +75,13 @@ pub struct DetectArgs {
     /// No progress bar.
     #[arg(long)]
     pub no_progress: bool,
+    /// Also count each method's instructions per frame under callgrind (valgrind must be on
+    /// PATH), at the summary's precision and spokes: a figure the machine's load does not move.
+    #[arg(long)]
+    pub instructions: bool,
+    /// Run the frames of this file under callgrind's count (the bench's own child process).
+    #[arg(long, hide = true, value_name = "FILE")]
+    pub count_file: Option<PathBuf>,
     /// Only rewrite DIR/report.md and speed_vs_error.svg from DIR/report.json.
     #[arg(long, value_name = "DIR", conflicts_with = "quick")]
     pub replot: Option<PathBuf>,
@@ -108,6 +115,7 @@ impl DetectArgs {
         if let Some(m) = &self.methods {
             o.methods = m.clone();
         }
+        o.instructions = self.instructions;
         set(&mut o.frames, self.frames);
         set(&mut o.warmup, self.warmup);
         set(&mut o.repeats, self.repeats);
@@ -131,6 +139,13 @@ impl DetectArgs {
     /// Runs the sweep (or the replot), writes the report into `--out` and prints the summary
     /// rows at the default precision and spokes on stderr.
     pub fn run(&self) -> Result<Report, Error> {
+        if let Some(file) = &self.count_file {
+            crate::instructions::run_file(file, &self.options()?)?;
+            return Ok(Report::default());
+        }
+        if self.instructions && !crate::instructions::available() {
+            return Err(Error::BadFlag { flag: "--instructions", value: "given".into(), expected: "valgrind on PATH (apt install valgrind)" });
+        }
         if let Some(dir) = &self.replot {
             let text = std::fs::read_to_string(dir.join("report.json")).map_err(|source| Error::Read { path: dir.join("report.json"), source })?;
             let report = Report::from_json(&text)?;

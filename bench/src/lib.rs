@@ -32,6 +32,7 @@
 
 pub mod baseline;
 pub mod cli;
+pub mod instructions;
 pub mod metrics;
 pub mod report;
 pub mod scenes;
@@ -126,6 +127,9 @@ pub enum Error {
     /// A `report.json` that does not parse.
     #[error("reading report.json: {0}")]
     ReportJson(#[from] serde_json::Error),
+    /// Counting a method's instructions under callgrind failed.
+    #[error("counting the instructions of {method} under callgrind: {detail}")]
+    Instructions { method: String, detail: String },
     /// Drawing the plot.
     #[error("drawing the plot: {0}")]
     Plot(#[from] plotters::drawing::DrawingAreaErrorKind<std::io::Error>),
@@ -238,6 +242,9 @@ pub struct Options {
     pub refine: u32,
     /// Contact margin of the detectors = parry's prediction distance (mm).
     pub margin: f32,
+    /// Count each method's instructions per frame under callgrind, at the summary's precision
+    /// and spokes ([`instructions`]).
+    pub instructions: bool,
 }
 
 impl Default for Options {
@@ -277,6 +284,7 @@ impl Options {
             parry_shape: ParryShape::RoundSegments,
             refine: 0,
             margin: 0.0,
+            instructions: false,
         }
     }
 

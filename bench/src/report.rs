@@ -34,6 +34,9 @@ pub struct Run {
     pub contacts_per_frame: f64,
     /// Default method: rod samples re-acquired through the BVH per frame.
     pub reacquired_per_frame: Option<f64>,
+    /// Instructions per frame counted by callgrind (`--instructions`; at the summary's precision
+    /// and spokes only).
+    pub instructions_per_frame: Option<f64>,
     /// The accuracy figures (flattened: the JSON keeps one level).
     #[serde(flatten)]
     pub metrics: Metrics,
@@ -251,12 +254,12 @@ impl Report {
     }
 
     fn table_header() -> &'static str {
-        "| scene | B | rings | x | method | median us | p99 us | time / default | speedup vs thesis | speedup vs parry | contacts/frame | missed (dense pts) | false | depth err mean / p99 / max mm | normal err p50 / p99 deg | escapes detected |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "| scene | B | rings | x | method | median us | p99 us | instructions / frame | time / default | speedup vs thesis | speedup vs parry | contacts/frame | missed (dense pts) | false | depth err mean / p99 / max mm | normal err p50 / p99 deg | escapes detected |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     }
 
     fn table_row(r: &Run) -> String {
         format!(
-            "| {} | {} | {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {:.1} | {} ({}) | {} | {} / {} / {} | {} / {} | {} / {} |\n",
+            "| {} | {} | {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {} | {:.1} | {} ({}) | {} | {} / {} / {} | {} / {} | {} / {} |\n",
             r.scene,
             r.spokes,
             r.rings,
@@ -264,6 +267,7 @@ impl Report {
             r.method,
             r.median_us,
             r.p99_us,
+            r.instructions_per_frame.map_or("-".into(), |n| format!("{:.3} M", n / 1e6)),
             f(r.time_vs_default, 2),
             f(r.speedup_vs_thesis, 1),
             f(r.speedup_vs_parry, 1),

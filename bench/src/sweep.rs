@@ -13,13 +13,13 @@
 //! Ratios are pair by pair: for each timed frame, one method's time over another's on that
 //! frame, and the median of those ratios.
 
-use crate::baseline::ParryBaseline;
+use crate::instructions::Runner;
 use crate::metrics::{evaluate, plan, Reported, Tally, Truth, TruthParams};
 use crate::report::{RingsDoubled, Run, SceneInfo};
 use crate::scenes::{self, Model, SceneData, SceneKind};
 use crate::{Error, MethodKind, Options};
 use indicatif::ProgressBar;
-use lumen_detect::{Detector, Method, SceneSpec};
+use lumen_detect::{Method, SceneSpec};
 use lumen_scene::gca::Source;
 use std::time::Instant;
 
@@ -32,11 +32,6 @@ pub struct Timing {
     pub contacts: f64,
     /// Default method: samples that re-acquired through the BVH, averaged.
     pub reacquired: f64,
-}
-
-enum Runner {
-    Detector(Detector),
-    Parry(ParryBaseline),
 }
 
 /// Spec of `scene` at precision `x` for `method`.
@@ -56,16 +51,7 @@ pub fn spec_for(scene: &SceneData, x: u32, method: MethodKind) -> SceneSpec {
 /// frames (`scene.eval`, in order) are appended there, one entry per judged frame.
 pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: &mut Vec<f32>, mut record: Option<&mut Vec<Vec<Reported>>>) -> Result<Timing, Error> {
     let spec = spec_for(scene, x, method);
-    let mut runner = match method {
-        MethodKind::Parry => Runner::Parry(ParryBaseline::new(&spec, scene.state(0), opts.parry_shape)?),
-        _ => {
-            let mut d = Detector::new(&spec.validate()?);
-            if matches!(method, MethodKind::Default | MethodKind::Nearest) {
-                d.set_refine(opts.refine);
-            }
-            Runner::Detector(d)
-        }
-    };
+    let mut runner = Runner::new(&spec, scene.state(0), method, opts)?;
     buf.clear();
     buf.extend_from_slice(scene.state(0));
     let mut t = Timing { ns: Vec::with_capacity(scene.frames), ..Timing::default() };
@@ -181,6 +167,16 @@ fn timed_runs(scene: &SceneData, opts: &Options, pb: &ProgressBar, records: &mut
                 reacquired_per_frame: (m == MethodKind::Default).then_some(t.reacquired),
                 ..Run::default()
             });
+        }
+        // Instructions at the summary's point only: each method's count runs under callgrind.
+        let summary = x == opts.default_precision && (scene.spokes == opts.doubled_spokes || scene.kind == SceneKind::Model);
+        if opts.instructions && summary {
+            let dir = std::env::temp_dir().join(format!("lumen-bench-count-{}", std::process::id()));
+            for (run, &m) in runs.iter_mut().rev().zip(opts.methods.iter().rev()) {
+                pb.set_message(format!("{} B{} x{x} {}: instructions under callgrind", scene.kind.name(), scene.spokes, m.name()));
+                run.instructions_per_frame = Some(crate::instructions::per_frame(scene, x, m, &dir)?);
+            }
+            let _ = std::fs::remove_dir(&dir);
         }
     }
     Ok(runs)
