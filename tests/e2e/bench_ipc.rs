@@ -37,8 +37,15 @@ fn a_short_ipc_benchmark_writes_coherent_figures() {
         [("back-to-back", "two cores"), ("back-to-back", "one core"), ("paced-1khz", "two cores"), ("paced-1khz", "one core")].into_iter().filter(|r| two || r.1 == "one core").collect();
     assert_eq!(rows, expect);
     assert!(wake.iter().all(|w| w["round_trips"] == 60 && w["p50_us"].as_f64().unwrap() > 0.0), "{wake:?}");
+    // Ownership's work, timed on this run's frame (40-byte header + its floats) and a reply of
+    // one contact a scope point (256-byte header + 160 records of 88 bytes), a batch a frame.
+    let o = &json["ownership"];
+    let floats = json["floats_per_frame"].as_u64().unwrap();
+    assert_eq!((o["frame_bytes"].as_u64(), o["reply_bytes"].as_u64(), o["batches"].as_u64()), (Some(40 + 4 * floats), Some(256 + 88 * 160), Some(60)), "{o}");
+    assert!(0.0 < o["p50_us"].as_f64().unwrap() && o["p50_us"].as_f64() <= o["p99_us"].as_f64(), "{o}");
     let md = std::fs::read_to_string(out.join("ipc.md")).unwrap();
     assert!(md.contains("| iceoryx2 | paced-1khz |"), "{md}");
+    assert!(md.contains(&format!("cost {:.3} us a round trip at p50", o["p50_us"].as_f64().unwrap())), "{md}");
     let _ = std::fs::remove_dir_all(&out);
     let left: Vec<_> =
         std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("lumen_bench_")).collect()).unwrap_or_default();

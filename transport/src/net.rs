@@ -68,14 +68,21 @@ pub fn tagged_queue(capacity: usize, secret: Secret, head: usize, on_forged: imp
     (gate, handler)
 }
 
-/// Whether `gate` admits `sample` (its header read from zenoh's fragments, no other copy).
+/// Whether `gate` admits `sample`.
 fn admit(gate: &Mutex<Gate>, sample: &Sample) -> bool {
     let Some(tag) = sample.attachment() else { return false };
+    admit_parts(gate, sample.payload().slices(), sample.payload().len(), &tag.to_bytes())
+}
+
+/// Whether `gate` admits a message of `len` bytes given in `parts` (zenoh's fragments; its
+/// header is copied out of them, nothing else) carrying `tag`: what the gate of a
+/// [`tagged_queue`] does for each sample (`lumen bench ipc` times it).
+pub fn admit_parts<'a>(gate: &Mutex<Gate>, parts: impl IntoIterator<Item = &'a [u8]>, len: usize, tag: &[u8]) -> bool {
     let mut gate = gate.lock().unwrap_or_else(|p| p.into_inner());
     let mut head = [0u8; MAX_HEAD];
-    let head = &mut head[..gate.head()];
+    let head = &mut head[..gate.head().min(MAX_HEAD)];
     let mut filled = 0;
-    for s in sample.payload().slices() {
+    for s in parts {
         let n = s.len().min(head.len() - filled);
         head[filled..filled + n].copy_from_slice(&s[..n]);
         filled += n;
@@ -83,5 +90,5 @@ fn admit(gate: &Mutex<Gate>, sample: &Sample) -> bool {
             break;
         }
     }
-    gate.admit(&head[..filled], sample.payload().len(), &tag.to_bytes())
+    gate.admit(&head[..filled], len, tag)
 }

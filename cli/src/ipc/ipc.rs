@@ -6,6 +6,7 @@
 //! The daemon is the real `lumen serve`, started as a child process with a private iceoryx2
 //! prefix and zenoh port; the clients are threads of this process.
 
+use super::ownership::{self, Ownership};
 use super::quantile_us;
 use super::wake::{self, Wake};
 use crate::error::{CliError, CliResult};
@@ -58,6 +59,8 @@ pub struct IpcReport {
     pub runs: Vec<IpcRun>,
     /// The machine's floor: a one-byte round trip between two threads ([`super::wake`]).
     pub wake: Vec<Wake>,
+    /// What session ownership costs a zenoh round trip, in this process ([`super::ownership`]).
+    pub ownership: Ownership,
 }
 
 impl IpcReport {
@@ -95,6 +98,15 @@ impl IpcReport {
         for w in &self.wake {
             s += &format!("| {} | {} | {:.1} | {:.1} | {:.1} | {} |\n", w.mode, w.cores, w.p50_us, w.p99_us, w.p999_us, w.round_trips);
         }
+        let o = &self.ownership;
+        s += &format!(
+            "\nSession ownership over zenoh (proto/README.md, section 6), timed in this process on this run's frame: the client's tag of its {} KiB frame, the daemon's gate, the daemon's tag of a {}-byte reply and the client's gate cost {:.3} us a round trip at p50 ({:.3} at p99; {} batches of 1000). Over iceoryx2 ownership is one comparison a frame.\n",
+            o.frame_bytes / 1024,
+            o.reply_bytes,
+            o.p50_us,
+            o.p99_us,
+            o.batches
+        );
         s
     }
 }
@@ -243,6 +255,9 @@ impl IpcBench {
         }
         bar.set_message("the machine's wake-up");
         let wake = wake::floor(n).map_err(CliError::WakeFloor)?;
+        bar.set_message("ownership's work");
+        // A reply of one contact a scope point (the scene's rod: its last body).
+        let ownership = ownership::measure(&states[0], spec.bodies.len(), spec.bodies.last().map_or(0, |b| b.points()), n.min(1000));
         bar.finish_and_clear();
         drop(_daemon); // SIGTERM: it releases its shared memory
                        // The private prefix's node counter (iceoryx2 never removes it) and anything left.
@@ -255,6 +270,7 @@ impl IpcBench {
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
             runs,
             wake,
+            ownership,
         })
     }
 

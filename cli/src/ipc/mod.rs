@@ -4,6 +4,7 @@
 // tests and the README).
 #[allow(clippy::module_inception)]
 pub mod ipc;
+pub mod ownership;
 pub mod wake;
 
 /// The value at quantile `q` of nanoseconds `v` (sorted in place), in microseconds; NaN if empty.
