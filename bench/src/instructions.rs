@@ -141,7 +141,7 @@ pub fn run_file(path: &Path, opts: &Options) -> Result<(), Error> {
     let mut bytes = Vec::new();
     std::io::Read::read_to_end(&mut r, &mut bytes).map_err(io)?;
     if bytes.len() != h.frames * h.floats * 4 {
-        return Err(Error::BaselineState { got: bytes.len() / 4, expected: h.frames * h.floats });
+        return Err(Error::Instructions { method: h.method, detail: format!("{} holds {} bytes of frames; its header says {} frames of {} floats", path.display(), bytes.len(), h.frames, h.floats) });
     }
     let states: Vec<f32> = bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes"))).collect();
     let state = |f: usize| &states[f * h.floats..(f + 1) * h.floats];
