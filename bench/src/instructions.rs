@@ -6,11 +6,10 @@
 //! The frames are prepared natively and only read under valgrind: building a colon (or importing
 //! the real one) under callgrind would take minutes of its own.
 
-use crate::baseline::ParryBaseline;
 use crate::scenes::SceneData;
-use crate::sweep::spec_for;
+use crate::sweep::{spec_for, Runner};
 use crate::{Error, MethodKind, Options};
-use lumen_detect::{Detector, SceneSpec};
+use lumen_detect::SceneSpec;
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -29,36 +28,6 @@ struct Header {
     uncounted: usize,
     frames: usize,
     floats: usize,
-}
-
-/// The method's detector, or the parry baseline.
-pub(crate) enum Runner {
-    Detector(Detector),
-    Parry(ParryBaseline),
-}
-
-impl Runner {
-    /// A fresh runner of `method` for `spec` (`state` builds parry's mesh).
-    pub(crate) fn new(spec: &SceneSpec, state: &[f32], method: MethodKind, opts: &Options) -> Result<Self, Error> {
-        Ok(match method {
-            MethodKind::Parry => Runner::Parry(ParryBaseline::new(spec, state, opts.parry_shape)?),
-            _ => {
-                let mut d = Detector::new(&spec.validate()?);
-                if matches!(method, MethodKind::Default | MethodKind::Nearest) {
-                    d.set_refine(opts.refine);
-                }
-                Runner::Detector(d)
-            }
-        })
-    }
-
-    /// Detects one frame; the number of contacts.
-    pub(crate) fn detect(&mut self, state: &[f32]) -> Result<usize, Error> {
-        match self {
-            Runner::Detector(d) => d.detect_prevalidated(state).map(|c| c.len()).map_err(Error::Detect),
-            Runner::Parry(p) => Ok(p.detect(state).len()),
-        }
-    }
 }
 
 /// One counted frame: the only function callgrind collects in (`--toggle-collect`).

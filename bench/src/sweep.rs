@@ -13,13 +13,13 @@
 //! Ratios are pair by pair: for each timed frame, one method's time over another's on that
 //! frame, and the median of those ratios.
 
-use crate::instructions::Runner;
+use crate::baseline::ParryBaseline;
 use crate::metrics::{evaluate, plan, Reported, Tally, Truth, TruthParams};
 use crate::report::{RingsDoubled, Run, SceneInfo};
 use crate::scenes::{self, Model, SceneData, SceneKind};
 use crate::{Error, MethodKind, Options};
 use indicatif::ProgressBar;
-use lumen_detect::{Method, SceneSpec};
+use lumen_detect::{Detector, Method, SceneSpec};
 use lumen_scene::gca::Source;
 use std::time::Instant;
 
@@ -32,6 +32,36 @@ pub struct Timing {
     pub contacts: f64,
     /// Default method: samples that re-acquired through the BVH, averaged.
     pub reacquired: f64,
+}
+
+/// The method's detector, or the parry baseline.
+pub(crate) enum Runner {
+    Detector(Detector),
+    Parry(ParryBaseline),
+}
+
+impl Runner {
+    /// A fresh runner of `method` for `spec` (`state` builds parry's mesh).
+    pub(crate) fn new(spec: &SceneSpec, state: &[f32], method: MethodKind, opts: &Options) -> Result<Self, Error> {
+        Ok(match method {
+            MethodKind::Parry => Runner::Parry(ParryBaseline::new(spec, state, opts.parry_shape)?),
+            _ => {
+                let mut d = Detector::new(&spec.validate()?);
+                if matches!(method, MethodKind::Default | MethodKind::Nearest) {
+                    d.set_refine(opts.refine);
+                }
+                Runner::Detector(d)
+            }
+        })
+    }
+
+    /// Detects one frame; the number of contacts.
+    pub(crate) fn detect(&mut self, state: &[f32]) -> Result<usize, Error> {
+        match self {
+            Runner::Detector(d) => d.detect_prevalidated(state).map(|c| c.len()).map_err(Error::Detect),
+            Runner::Parry(p) => Ok(p.detect(state).len()),
+        }
+    }
 }
 
 /// Spec of `scene` at precision `x` for `method`.
@@ -59,18 +89,9 @@ pub fn pass(scene: &SceneData, x: u32, method: MethodKind, opts: &Options, buf: 
     let (mut contacts, mut reacquired) = (0u64, 0u64);
     for f in 0..scene.frames {
         buf.copy_from_slice(scene.state(f));
-        let (dt, n) = match &mut runner {
-            Runner::Detector(d) => {
-                let t0 = Instant::now();
-                let n = d.detect_prevalidated(buf).map_err(Error::Detect)?.len();
-                (t0.elapsed(), n)
-            }
-            Runner::Parry(p) => {
-                let t0 = Instant::now();
-                let n = p.detect(buf).len();
-                (t0.elapsed(), n)
-            }
-        };
+        let t0 = Instant::now();
+        let n = runner.detect(buf)?;
+        let dt = t0.elapsed();
         std::hint::black_box(n);
         if f >= opts.warmup {
             t.ns.push(dt.as_nanos() as u64);

@@ -194,8 +194,8 @@ pub struct SessionStatus {
     /// Frames skipped because a newer one had arrived.
     pub skipped: u64,
     /// Frames that did not come from the session's owner, dropped and never answered: over
-    /// zenoh messages on its frame key without the owner's tag, over iceoryx2 frames of a
-    /// publisher of another node than the opener's.
+    /// zenoh messages on its frame key without the owner's tag or with a frame number used
+    /// before, over iceoryx2 frames of a publisher of another node than the opener's.
     #[serde(default)]
     pub forged: u64,
     /// Frames per second over the last few seconds.
