@@ -6,17 +6,17 @@ use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, ControlRequest, DaemonInfo, ErrorCode, SessionInfo, StatusReport, Transport};
-use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, FRAME_HEADER_BYTES};
+use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, CONTACTS_MAGIC, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
-use lumen_transport::names::{daemon_alive_name, observe_contacts_name, observe_frame_name, session_live_name, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER};
-use lumen_transport::net::{config, tagged_queue, CONGESTION, CONTACTS_QUEUE, OBSERVER_QUEUE};
+use lumen_transport::names::{daemon_alive_name, observe_name, session_live_name, AFTER_PARAMETER, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER, END_PARAMETER, OBSERVER_PARAMETER};
+use lumen_transport::net::{config, tagged_queue, ASK_HOLD, CONGESTION, CONTACTS_QUEUE, OBSERVER_CONGESTION};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
+use zenoh::handlers::{FifoChannelHandler, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::query::{ConsolidationMode, QueryTarget};
+use zenoh::query::{ConsolidationMode, QueryTarget, Reply};
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Wait;
 
@@ -63,11 +63,11 @@ impl ZenohClient {
         self
     }
 
-    /// Sends one control request and waits up to `timeout` for the reply: a `describe` or a
-    /// `close` from the daemon that has the session, anything else from the nearest daemon.
+    /// Sends one control request and waits up to `timeout` for the reply: a `describe`, an
+    /// `observe` or a `close` from the daemon that has the session, anything else from the nearest daemon.
     pub fn request(&self, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
         match request {
-            ControlRequest::Describe { .. } | ControlRequest::Close { .. } => about_a_session(&self.session, &self.route, request, timeout),
+            ControlRequest::Describe { .. } | ControlRequest::Observe { .. } | ControlRequest::Close { .. } => about_a_session(&self.session, &self.route, request, timeout),
             _ => request_on(&self.session, &self.route, request, None, timeout),
         }
     }
@@ -102,15 +102,26 @@ impl ZenohClient {
     }
 
     pub(crate) fn observe(&self, info: SessionInfo) -> Result<ZenohObserver, Error> {
-        // The daemon's droppable repeats of the session's frames and replies, not the client's
-        // own keys: a slow observer then loses samples instead of slowing the session.
-        let both = format!("{}/*", observe_frame_name(info.session).rsplit_once('/').expect("a key with a root").0);
-        let sub = self.session.declare_subscriber(both).with(RingChannel::new(OBSERVER_QUEUE)).wait().map_err(|e| Error::zenoh("subscribing", e))?;
+        let token = take_place(&self.session, &self.route, &info)?;
         // The session lives while the daemon's token for it and the daemon's own do.
         let watch = |key: &str| self.session.liveliness().declare_subscriber(key).wait().map_err(|e| Error::zenoh(&format!("watching {key}"), e));
         let ended = [watch(&session_live_name(info.session))?, watch(&daemon_key(&info))?];
-        let (frame_key, contacts_key) = (observe_frame_name(info.session), observe_contacts_name(info.session));
-        Ok(ZenohObserver { sub, ended, info, frame_key, contacts_key, frame_header: FrameHeader::default(), state: Vec::new(), header: ContactsHeader::default(), contacts: Vec::new() })
+        let key = observe_name(info.session);
+        let (route, session) = (self.route.clone(), self.session.clone());
+        Ok(ZenohObserver {
+            session,
+            route,
+            key,
+            token,
+            ask: None,
+            after: None,
+            ended,
+            info,
+            frame_header: FrameHeader::default(),
+            state: Vec::new(),
+            header: ContactsHeader::default(),
+            contacts: Vec::new(),
+        })
     }
 }
 
@@ -430,16 +441,24 @@ impl ZenohSession {
     }
 }
 
-/// An observer over zenoh: one subscription to the session's frame and contacts keys.
+/// An observer over zenoh: a place taken with `observe`, and one ask at a time for the
+/// session's newest frame and its reply (`proto/README.md`, section 4).
 pub(crate) struct ZenohObserver {
-    sub: Subscriber<RingChannelHandler<Sample>>,
+    session: zenoh::Session,
+    route: Route,
+    /// `lumen/session/<id>/observe`.
+    key: String,
+    /// The place's token, 32 hex digits.
+    token: String,
+    /// The ask in flight and when it was sent: its answers (the frame, then its reply) come on
+    /// this channel.
+    ask: Option<(FifoChannelHandler<Reply>, Instant)>,
+    /// The newest frame number seen (asks want a newer one).
+    after: Option<u64>,
     /// Liveliness of the daemon's token for the session and of the daemon: a `Delete` ends the
     /// session.
     ended: [Subscriber<FifoChannelHandler<Sample>>; 2],
     pub(crate) info: SessionInfo,
-    /// The keys the daemon repeats the session's frames and replies on for observers.
-    frame_key: String,
-    contacts_key: String,
     frame_header: FrameHeader,
     state: Vec<f32>,
     header: ContactsHeader,
@@ -454,28 +473,90 @@ impl ZenohObserver {
         let deadline = Instant::now() + timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let Some(sample) = self.sub.recv_timeout(left.min(LIVENESS_PERIOD)).map_err(|e| Error::zenoh("observing", e))? else {
-                if self.ended.iter().any(|w| std::iter::from_fn(|| w.try_recv().ok().flatten()).any(|s| s.kind() == SampleKind::Delete)) {
-                    return Err(Error::SessionEnded(self.info.session));
+            if self.ask.is_none() {
+                self.ask = Some((self.send_ask()?, Instant::now()));
+            }
+            let (ask, asked) = self.ask.as_ref().expect("an ask in flight");
+            let reply = match ask.recv_timeout(left.min(LIVENESS_PERIOD)) {
+                Ok(Some(reply)) => reply,
+                waiting => {
+                    // Nothing yet (`Ok(None)`), or the ask ended unanswered (`Err`: the daemon
+                    // held it as long as it holds asks, or nothing serves the key): ask again,
+                    // not at once if it ended at once, unless the session is gone or the time
+                    // is up.
+                    if waiting.is_err() {
+                        let quick = asked.elapsed() < LIVENESS_PERIOD;
+                        self.ask = None;
+                        if quick {
+                            std::thread::sleep(left.min(LIVENESS_PERIOD));
+                        }
+                    }
+                    if self.ended.iter().any(|w| std::iter::from_fn(|| w.try_recv().ok().flatten()).any(|s| s.kind() == SampleKind::Delete)) {
+                        return Err(Error::SessionEnded(self.info.session));
+                    }
+                    if left <= LIVENESS_PERIOD {
+                        return Err(Error::Timeout(timeout));
+                    }
+                    continue;
                 }
-                if left <= LIVENESS_PERIOD {
-                    return Err(Error::Timeout(timeout));
-                }
-                continue;
             };
-            let bytes = sample.payload().to_bytes();
-            if sample.key_expr().as_str() == self.contacts_key {
+            let bytes = match reply.result() {
+                Ok(sample) => sample.payload().to_bytes(),
+                Err(e) => match parse_reply(&e.payload().to_bytes())? {
+                    // The place lapsed (no ask for a while): take one again.
+                    ControlReply::Error(c) if c.code == ErrorCode::NotObserver => {
+                        self.ask = None;
+                        self.token = take_place(&self.session, &self.route, &self.info)?;
+                        continue;
+                    }
+                    other => return Err(unexpected(other)),
+                },
+            };
+            if bytes.len() >= 4 && bytes[..4] == CONTACTS_MAGIC.to_le_bytes() {
                 self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
                 return Ok(Observed::Contacts(ContactsView { header: &self.header, contacts: &self.contacts }));
             }
-            if sample.key_expr().as_str() == self.frame_key {
-                let Ok(h) = FrameHeader::read(&bytes) else { continue };
-                let body = &bytes[FRAME_HEADER_BYTES..];
-                self.state.clear();
-                self.state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
-                self.frame_header = h;
-                return Ok(Observed::Frame { header: &self.frame_header, state: &self.state });
-            }
+            let Ok(h) = FrameHeader::read(&bytes) else { continue };
+            let body = &bytes[FRAME_HEADER_BYTES..];
+            self.state.clear();
+            self.state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+            self.frame_header = h;
+            self.after = Some(h.frame);
+            return Ok(Observed::Frame { header: &self.frame_header, state: &self.state });
         }
+    }
+
+    /// Asks for a frame newer than the newest seen, with congestion control drop: on a
+    /// congested link the answer is lost, not queued (the next ask gets a newer one).
+    fn send_ask(&self) -> Result<FifoChannelHandler<Reply>, Error> {
+        let mut selector = format!("{}?{OBSERVER_PARAMETER}={}", self.key, self.token);
+        if let Some(a) = self.after {
+            selector.push_str(&format!(";{AFTER_PARAMETER}={a}"));
+        }
+        self.session
+            .get(selector)
+            .congestion_control(OBSERVER_CONGESTION)
+            .consolidation(ConsolidationMode::None)
+            .timeout(ASK_HOLD + CONTROL_WAIT)
+            .wait()
+            .map_err(|e| Error::zenoh("asking for the newest frame", e))
+    }
+}
+
+impl Drop for ZenohObserver {
+    /// Gives the place back (if this ask is lost, the place lapses by itself).
+    fn drop(&mut self) {
+        let selector = format!("{}?{OBSERVER_PARAMETER}={};{END_PARAMETER}", self.key, self.token);
+        let _ = self.session.get(selector).congestion_control(OBSERVER_CONGESTION).callback(|_| {}).wait();
+    }
+}
+
+/// Takes an observer place of the session of `info` on the daemon that serves it; returns its
+/// token.
+fn take_place(session: &zenoh::Session, route: &Route, info: &SessionInfo) -> Result<String, Error> {
+    match about_a_session(session, route, &ControlRequest::Observe { session: info.session }, crate::CONTROL_TIMEOUT)? {
+        ControlReply::Observing { observer, .. } => Ok(observer),
+        ControlReply::Error(e) if e.code == ErrorCode::ObserversFull => Err(Error::ObserversFull { session: info.session, max: info.max_observers }),
+        other => Err(unexpected(other)),
     }
 }

@@ -51,6 +51,9 @@ pub enum ControlRequest {
     },
     /// Describe an open session (for observers): replies [`ControlReply::Described`].
     Describe { session: u64 },
+    /// Over zenoh: take one of the session's observer places (at most `max_observers`); replies
+    /// [`ControlReply::Observing`] with the token its asks carry, or [`ErrorCode::ObserversFull`].
+    Observe { session: u64 },
     /// Close a session now (clients also close by disappearing). Only its owner can:
     /// `proof` is [`crate::auth::Secret::close_proof`] of the session, the hex BLAKE3 keyed hash of
     /// `lumen close <session>` under the secret of the `opened` reply.
@@ -72,7 +75,15 @@ pub enum ControlRequest {
 pub enum ControlReply {
     Opened(SessionInfo),
     Described(SessionInfo),
-    Closed { session: u64 },
+    Closed {
+        session: u64,
+    },
+    /// An observer place over zenoh: `observer` (32 hex digits) goes in every ask
+    /// (`proto/README.md`, section 4).
+    Observing {
+        session: u64,
+        observer: String,
+    },
     Status(StatusReport),
     Hello(DaemonInfo),
     Error(ControlError),
@@ -124,6 +135,11 @@ pub enum ErrorCode {
     /// client certificates), or the request came on the bare control key where the daemon
     /// requires the certificate's own (`lumen/control/<common name>`).
     NotAllowed,
+    /// The session already has `max_observers` observers (the message names the limit).
+    ObserversFull,
+    /// An ask for a zenoh observer's frames carries no observer token the session knows (never
+    /// taken, ended, or lapsed after 5 s without an ask): take a place again with `observe`.
+    NotObserver,
     /// The daemon failed to create the session's channels.
     Internal,
 }
@@ -155,7 +171,8 @@ pub struct SessionInfo {
     /// named by the secret), only in the `opened` reply; the session is freed when it goes
     /// away. iceoryx2, and `describe`: empty (over iceoryx2 the frame publisher is its life).
     pub alive: String,
-    /// iceoryx2: most observers (extra subscribers) the session's channels admit.
+    /// Most observers of the session at once: over iceoryx2 extra subscribers of its channels,
+    /// over zenoh places taken with `observe`.
     pub max_observers: u32,
     /// The session's secret, 32 lowercase hex digits ([`crate::auth::Secret`]): only in the
     /// `opened` reply, to the client that opened it (`describe` leaves it out). It keys the

@@ -113,10 +113,11 @@ impl Policy {
             rule("open-out".into(), &["put"], "egress", vec![session("contacts")]),
             // The daemon's frame subscriber, announced so the client's publisher sends to it.
             rule("open-decl-out".into(), &["declare_subscriber"], "egress", vec![session("frame")]),
-            // Observing: the observer keys out, watching the daemon's token for the session.
-            rule("observe-in".into(), &["declare_subscriber"], "ingress", vec![session("observe/*")]),
+            // Observing: asks in, their answers out (the daemon's queryable announced), watching
+            // the daemon's token for the session.
+            rule("observe-in".into(), &["query"], "ingress", vec![session("observe")]),
             rule("observe-watch-in".into(), &["declare_liveliness_subscriber", "liveliness_query"], "ingress", vec![session("live")]),
-            rule("observe-out".into(), &["put"], "egress", vec![session("observe/*")]),
+            rule("observe-out".into(), &["reply", "declare_queryable"], "egress", vec![session("observe")]),
             rule("observe-watch-out".into(), &["liveliness_token", "reply"], "egress", vec![session("live")]),
         ];
         let mut subjects = Vec::new();

@@ -27,7 +27,7 @@
 //!
 //! [limits]
 //! max_sessions = 16
-//! max_observers = 4         # per session (iceoryx2 subscribers beyond the client)
+//! max_observers = 4         # per session (iceoryx2 subscribers beyond the client, zenoh places)
 //! max_contacts = 65536      # per reply; more are cut and flagged
 //! max_session_mib = 512     # shared memory one session may pin
 //! ```

@@ -21,7 +21,7 @@ pub struct Plan {
     pub echo: bool,
 }
 
-fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
+pub(crate) fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
     ControlReply::Error(ControlError { code, message: message.into() })
 }
 
@@ -58,6 +58,13 @@ pub fn handle(registry: &Registry, transport: Transport, requester: &Requester, 
         ControlRequest::Describe { session } => match registry.get(session) {
             // The stored info holds no secret: what describe tells an observer.
             Some(e) => ControlReply::Described(e.info.clone()),
+            None => error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted")),
+        },
+        ControlRequest::Observe { session } => match registry.get(session) {
+            Some(e) if e.info.transport != Transport::Zenoh => {
+                error(ErrorCode::BadRequest, format!("session {session} runs on iceoryx2: observe it there, by subscribing to its frame and contacts services (proto/README.md, section 4)"))
+            }
+            Some(e) => observe(&e, registry.limits.max_observers),
             None => error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted")),
         },
         ControlRequest::Close { session, proof } => match registry.get(session) {
@@ -105,6 +112,7 @@ fn refuse(registry: &Registry, requester: &Requester, request: &ControlRequest) 
     match request {
         ControlRequest::Status if !g.status => denied("query status"),
         ControlRequest::Describe { .. } if !g.observe => denied("observe (describe) sessions"),
+        ControlRequest::Observe { .. } if !g.observe => denied("observe sessions"),
         ControlRequest::Open { .. } if g.open == 0 => denied("open sessions"),
         ControlRequest::Open { .. } if registry.held_by(&g.name) >= g.open => {
             Some(error(ErrorCode::Limit, format!("certificate {:?} already holds {} sessions, as many as its access allows (open = {}): close one first", g.name, g.open, g.open)))
@@ -190,12 +198,29 @@ fn open(
     }
 }
 
+/// A zenoh observer place of session `e` with a fresh token, or why not.
+fn observe(e: &Entry, max: usize) -> ControlReply {
+    let session = e.info.session;
+    let Some(token) = random::<{ crate::places::TOKEN_BYTES }>() else {
+        return error(ErrorCode::Internal, "the operating system gave no random bytes for the observer's token");
+    };
+    if !e.places.take(token, max, std::time::Instant::now()) {
+        return error(ErrorCode::ObserversFull, format!("session {session} already has {max} observers, as many as the daemon allows (limits.max_observers): end one or raise the limit"));
+    }
+    ControlReply::Observing { session, observer: crate::places::token_hex(&token) }
+}
+
 /// A fresh secret of 256 bits from the operating system's generator (`None` if it fails).
 fn new_secret() -> Option<Secret> {
+    random::<SECRET_BYTES>().map(Secret::from_bytes)
+}
+
+/// `N` bytes from the operating system's generator (`None` if it fails).
+fn random<const N: usize>() -> Option<[u8; N]> {
     use ring::rand::SecureRandom;
-    let mut bytes = [0u8; SECRET_BYTES];
+    let mut bytes = [0u8; N];
     ring::rand::SystemRandom::new().fill(&mut bytes).ok()?;
-    Some(Secret::from_bytes(bytes))
+    Some(bytes)
 }
 
 #[cfg(test)]

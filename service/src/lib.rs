@@ -7,7 +7,8 @@
 //! - [`access`]: who may do what over zenoh with client certificates (zenoh ACL + our checks).
 //! - [`daemon`]: starts the transports over one [`registry`], stops on SIGINT/SIGTERM.
 //! - [`local`] (iceoryx2) and [`remote`] (zenoh): the transports.
-//! - [`control`]: open / describe / close / status, the same on both.
+//! - [`control`]: open / describe / observe / close / status, the same on both.
+//! - [`places`] (counted, lapsing) and [`observe`] (their asks answered): zenoh observers.
 //! - [`engine`]: one session's frame processing (check, detect, reply).
 //! - [`stats`]: per-session figures for `lumen status`.
 //! - [`error`]: [`DaemonError`], the one error type of this crate.
@@ -19,6 +20,8 @@ pub mod daemon;
 pub mod engine;
 pub mod error;
 pub mod local;
+pub mod observe;
+pub mod places;
 pub mod registry;
 pub mod remote;
 pub mod stats;

@@ -2,6 +2,7 @@
 
 use crate::config::Limits;
 use crate::error::DaemonError;
+use crate::places::Places;
 use crate::stats::Stats;
 use lumen_proto::auth::Secret;
 use lumen_proto::session::{DaemonInfo, SessionInfo, SessionStatus, StatusReport, Transport};
@@ -28,6 +29,8 @@ pub struct Entry {
     /// Set to ask the session's thread to end.
     pub close: AtomicBool,
     pub stats: Mutex<Stats>,
+    /// Zenoh observers' places (iceoryx2 counts its observers in the channels).
+    pub places: Places,
 }
 
 impl Entry {
@@ -112,7 +115,7 @@ impl Registry {
         if s.len() >= self.limits.max_sessions {
             return None;
         }
-        let e = Arc::new(Entry { info, secret, scene, client, holder, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()) });
+        let e = Arc::new(Entry { info, secret, scene, client, holder, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()), places: Places::default() });
         s.insert(e.info.session, e.clone());
         Some(e)
     }

@@ -1,19 +1,21 @@
 //! The daemon's zenoh side: a queryable for control requests, and one thread per session that
-//! blocks on its frame subscriber (newest frame wins), detects, and publishes the reply. A
-//! session lives while its client's liveliness token does.
+//! blocks on its frame subscriber (newest frame wins), detects, and publishes the reply (and
+//! hands it to the session's observers, [`crate::observe`]). A session lives while its
+//! client's liveliness token does.
 
 use crate::access::{Policy, Requester};
 use crate::config::StatusPolicy;
 use crate::control::{self, Plan};
 use crate::engine::Engine;
 use crate::error::DaemonError;
+use crate::observe::Observing;
 use crate::registry::Registry;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
-use lumen_transport::names::{client_alive_name, observe_contacts_name, observe_frame_name, session_live_name};
+use lumen_transport::names::{client_alive_name, session_live_name};
 use lumen_transport::names::{daemon_alive_name, CONTROL, DAEMON_PARAMETER};
-use lumen_transport::net::{config, set, tagged_queue, CONGESTION, FRAME_QUEUE, OBSERVER_CONGESTION};
+use lumen_transport::net::{config, set, tagged_queue, CONGESTION, FRAME_QUEUE};
 use lumen_transport::TransportError;
 use std::sync::mpsc;
 use std::sync::Arc;
@@ -179,9 +181,8 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     // Held while the session lives: observers watch it to learn that the session ended.
     let live_key = session_live_name(info.session);
     let _live = z.liveliness().declare_token(live_key.clone()).wait().map_err(|e| TransportError::zenoh(format!("declaring {live_key}"), e))?;
-    // Observers get the frames and replies repeated on keys of their own, droppable.
-    let observe = |key: String| z.declare_publisher(key.clone()).congestion_control(OBSERVER_CONGESTION).express(true).wait().map_err(|e| TransportError::zenoh(format!("publishing on {key}"), e));
-    let (observe_frames, observe_contacts) = (observe(observe_frame_name(info.session))?, observe(observe_contacts_name(info.session))?);
+    // Registered observers ask for the newest frame and reply; another thread answers them.
+    let observers = Observing::start(z, plan.entry.clone())?;
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout().floats);
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
@@ -207,8 +208,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
                 }
                 engine.record(&reply, service);
                 // For observers, after the client's reply (shared buffers, no copies).
-                let _ = observe_frames.put(sample.payload().clone()).wait();
-                let _ = observe_contacts.put(out).wait();
+                observers.publish(reply.frame, sample.payload().clone(), out);
             }
             Ok(None) => {}
             Err(e) => return Err(TransportError::zenoh("receiving a frame", e).into()),

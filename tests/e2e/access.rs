@@ -7,7 +7,7 @@ use lumen_client::{Client, Tls};
 use lumen_detect::Detector;
 use lumen_e2e::pki::Pki;
 use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
-use lumen_proto::session::{ControlReply, ErrorCode, StatusReport};
+use lumen_proto::session::{ControlReply, ControlRequest, ErrorCode, StatusReport};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -94,13 +94,13 @@ fn with_client_certificates_each_client_does_exactly_what_its_grant_allows() {
     refused(answered(|| physics.open_session(&scene.spec).map(|s| s.id())), ErrorCode::Limit, "open = 1");
     refused(answered(|| physics.status()), ErrorCode::NotAllowed, "\"physics\" may not query status");
     refused(answered(|| physics.describe(s.id())), ErrorCode::NotAllowed, "may not observe");
+    refused(answered(|| physics.request(&ControlRequest::Observe { session: s.id() })), ErrorCode::NotAllowed, "may not observe");
 
     // tutor may query status and observe, not open.
     let report: StatusReport = answered(|| tutor.status()).unwrap();
     assert_eq!(report.sessions.iter().map(|x| x.session).collect::<Vec<_>>(), [s.id()]);
     refused(answered(|| tutor.open_session(&scene.spec).map(|s| s.id())), ErrorCode::NotAllowed, "\"tutor\" may not open");
     let mut watch = answered(|| tutor.observe(s.id())).unwrap();
-    std::thread::sleep(Duration::from_millis(300)); // the observer's subscription reaches the daemon
     let mut seen = 0;
     for k in 1..6 {
         round_trip(&mut s, k);

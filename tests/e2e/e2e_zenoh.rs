@@ -24,45 +24,69 @@ fn child_role() {
     }
 }
 
-/// This test binary re-run as a deliberately slow observer of session `LUMEN_E2E_OBSERVE`: a
-/// raw zenoh subscriber to the session's observer keys whose callback sleeps half a second per
-/// sample (it blocks its zenoh session's receiving thread, so its link backs up), as a careless
-/// VR front-end might. Subscribes and prints `observing` at start and on a stdin line `on`,
-/// drops its subscriber and prints `paused` on `off`; when stdin closes, prints `saw N` (the
-/// samples its callback got) and ends.
+/// This test binary re-run as a deliberately slow observer of session `LUMEN_E2E_OBSERVE`,
+/// written from `proto/README.md` section 4 with raw zenoh as a foreign client would: takes a
+/// place with `{"op":"observe"}`, then asks for newer frames with zenoh's default query
+/// settings (congestion control block) and sleeps half a second per answer it gets, as a
+/// careless VR front-end might. Asks and prints `observing` at start and on a stdin line `on`,
+/// stops asking and prints `paused` on `off`; when stdin closes, prints `saw N` (the answers it
+/// got) and ends.
 #[test]
 fn slow_observer_role() {
     let (Ok(endpoint), Ok(session)) = (std::env::var("LUMEN_E2E_ENDPOINT"), std::env::var("LUMEN_E2E_OBSERVE")) else { return };
     let config = lumen_transport::net::config("client", &[], &[endpoint]).unwrap();
     let z = zenoh::open(config).wait().unwrap();
-    let key = format!("lumen/session/{session}/observe/*");
-    let seen = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let subscribe = || {
-        let seen = seen.clone();
-        z.declare_subscriber(key.clone())
-            .callback(move |_| {
-                seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                std::thread::sleep(Duration::from_millis(500));
-            })
-            .wait()
-            .unwrap()
+    let place = || {
+        let json = format!("{{\"op\":\"observe\",\"session\":{session}}}");
+        let reply = z.get("lumen/control").payload(json).wait().unwrap().recv().unwrap();
+        let v: serde_json::Value = serde_json::from_slice(&reply.result().unwrap().payload().to_bytes()).unwrap();
+        assert_eq!(v["reply"], "observing", "{v}");
+        v["observer"].as_str().unwrap().to_owned()
     };
-    let mut sub = Some(subscribe());
+    let mut token = place();
+    let (lines, stdin) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufRead::lines(std::io::stdin().lock()).map_while(Result::ok) {
+            let _ = lines.send(line);
+        }
+    });
+    let (mut asking, mut after, mut saw) = (true, 0u64, 0usize);
     println!("\nobserving"); // on a line of its own: the test harness left "test ... " open
-    for line in std::io::BufRead::lines(std::io::stdin().lock()).map_while(Result::ok) {
-        match line.trim() {
-            "on" => {
-                sub.get_or_insert_with(subscribe);
+    loop {
+        match stdin.try_recv() {
+            Ok(line) if line.trim() == "on" => {
+                asking = true;
                 println!("observing");
             }
-            "off" => {
-                drop(sub.take());
+            Ok(line) if line.trim() == "off" => {
+                asking = false;
                 println!("paused");
             }
-            _ => {}
+            Ok(_) => {}
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => break,
+        }
+        if !asking {
+            std::thread::sleep(Duration::from_millis(20));
+            continue;
+        }
+        let replies = z.get(format!("lumen/session/{session}/observe?observer={token};after={after}")).wait().unwrap();
+        while let Ok(reply) = replies.recv() {
+            match reply.result() {
+                Ok(sample) => {
+                    let bytes = sample.payload().to_bytes();
+                    if bytes[..4] == *b"LMNF" {
+                        after = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+                    }
+                    saw += 1;
+                    std::thread::sleep(Duration::from_millis(500));
+                }
+                // The place lapsed while paused: take another.
+                Err(_) => token = place(),
+            }
         }
     }
-    println!("saw {}", seen.load(std::sync::atomic::Ordering::Relaxed));
+    println!("saw {saw}");
 }
 
 /// Frames per second of `frames` round trips of session `s`.
@@ -111,7 +135,7 @@ fn a_slow_observer_does_not_slow_the_client() {
     };
     let (alone, watched) = (median(&mut alone), median(&mut watched));
     eprintln!("client frame rate, medians of 3 alternated windows: {alone:.0}/s alone, {watched:.0}/s beside an observer that sleeps 0.5 s per sample");
-    // Before observers had droppable keys of their own: 485 frames/s fell to 15.
+    // Before observers asked for frames (the daemon published them): 485 frames/s fell to 15.
     assert!(watched > 0.5 * alone, "{watched:.0}/s beside the slow observer, {alone:.0}/s alone");
 }
 
@@ -164,6 +188,72 @@ fn daemon(tag: &str) -> Daemon {
     Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), &["--zenoh-status", "sessions"])
 }
 
+/// Observers over zenoh take places, as many as `limits.max_observers`; each asks for the
+/// newest frame and gets it with its reply; a place given back is free again; an ask without a
+/// place is refused with `not_observer`; nothing is published for a mere subscriber.
+#[test]
+fn zenoh_observers_are_limited_and_only_those_with_a_place_get_frames() {
+    let prefix = unique_prefix("zobs");
+    let cfg = std::env::temp_dir().join(format!("{prefix}lumen.toml"));
+    std::fs::write(&cfg, "[limits]\nmax_observers = 2\n").unwrap();
+    let d = Daemon::start(Path::new(LUMEN), &prefix, Some(free_port()), &["--zenoh-status", "sessions", "--config", cfg.to_str().unwrap()]);
+    let scene = TestScene::new(40, 16, 24);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    let id = s.id();
+    assert_eq!(s.info().max_observers, 2);
+    let raw = zenoh::open(lumen_transport::net::config("client", &[], &[d.endpoint()]).unwrap()).wait().unwrap();
+    let heard = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let listen = |key: String| {
+        let heard = heard.clone();
+        raw.declare_subscriber(key)
+            .callback(move |_| {
+                heard.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            })
+            .wait()
+            .unwrap()
+    };
+    let _subs = [listen(format!("lumen/session/{id}/observe")), listen(format!("lumen/session/{id}/observe/**"))];
+    let watcher = Client::zenoh(&d.endpoint()).unwrap();
+    let mut first = watcher.observe(id).unwrap();
+    let second = watcher.observe(id).unwrap();
+    match watcher.observe(id) {
+        Err(lumen_client::Error::ObserversFull { session, max }) => assert_eq!((session, max), (id, 2)),
+        Err(e) => panic!("a third observer: {e}"),
+        Ok(_) => panic!("a third observer was admitted"),
+    }
+    for k in 0..3 {
+        s.frame().unwrap().copy_from_slice(&scene.state(k));
+        s.submit().unwrap();
+        s.contacts(WAIT).unwrap();
+    }
+    // The newest frame (2), then the reply to it; then frames as they come.
+    match first.next(WAIT).unwrap() {
+        Observed::Frame { header, state } => assert_eq!((header.frame, state), (2, &scene.state(2)[..])),
+        Observed::Contacts(_) => panic!("contacts before their frame"),
+    }
+    match first.next(WAIT).unwrap() {
+        Observed::Contacts(r) => assert_eq!((r.header().session, r.header().frame), (id, 2)),
+        Observed::Frame { .. } => panic!("a frame before the reply to frame 2"),
+    }
+    assert!(matches!(first.next(Duration::from_millis(300)), Err(lumen_client::Error::Timeout(_))), "no frame newer than 2 yet");
+    s.frame().unwrap().copy_from_slice(&scene.state(3));
+    s.submit().unwrap();
+    assert!(matches!(first.next(WAIT).unwrap(), Observed::Frame { header, .. } if header.frame == 3));
+    // Asks without a place: a made-up token, or none.
+    for selector in [format!("lumen/session/{id}/observe?observer={}", "ab".repeat(16)), format!("lumen/session/{id}/observe")] {
+        let reply = raw.get(&selector).wait().unwrap().recv().unwrap_or_else(|_| panic!("{selector}: no answer"));
+        let refusal: ControlReply = serde_json::from_slice(&reply.result().expect_err("an error reply").payload().to_bytes()).unwrap();
+        assert!(matches!(&refusal, ControlReply::Error(e) if e.code == ErrorCode::NotObserver), "{selector}: {refusal:?}");
+    }
+    // A place given back (the observer dropped) is free for another.
+    drop(second);
+    assert!(lumen_e2e::eventually(WAIT, || watcher.observe(id).is_ok()), "the second place never came back");
+    assert_eq!(heard.load(std::sync::atomic::Ordering::SeqCst), 0, "something was published on the observer keys");
+    drop((first, s));
+    assert_eq!(d.terminate().map(|s| s.success()), Some(true));
+}
+
 #[test]
 fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
     let d = daemon("zrt");
@@ -173,7 +263,6 @@ fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
     assert_eq!(s.info().transport, lumen_client::Transport::Zenoh);
     let watcher = Client::zenoh(&d.endpoint()).unwrap();
     let mut obs = watcher.observe(s.id()).unwrap();
-    std::thread::sleep(Duration::from_millis(200)); // let the observer's subscription propagate
     let mut reference = Detector::new(&scene.spec.validate().unwrap());
     let mut total = 0;
     for k in 0..30 {
@@ -187,16 +276,17 @@ fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
         total += expected.len();
     }
     assert!(total > 30);
-    // The observer saw frames and replies of this session.
-    let (mut frames, mut replies) = (0, 0);
+    // The observer saw frames and replies of this session, each reply after its frame.
+    let (mut frames, mut replies, mut last) = (0, 0, None);
     while let Ok(o) = obs.next(Duration::from_millis(300)) {
         match o {
             Observed::Frame { header, state } => {
                 assert_eq!(state, &scene.state(header.frame)[..]);
                 frames += 1;
+                last = Some(header.frame);
             }
             Observed::Contacts(r) => {
-                assert_eq!(r.header().session, s.id());
+                assert_eq!((r.header().session, Some(r.header().frame)), (s.id(), last));
                 replies += 1;
             }
         }

@@ -63,16 +63,19 @@ pub fn session_live_name(id: u64) -> String {
     format!("{ROOT}/session/{id}/live")
 }
 
-/// Zenoh key on which the daemon repeats session `id`'s frames for observers, droppable: an
-/// observer that cannot keep up loses samples rather than slowing the session.
-pub fn observe_frame_name(id: u64) -> String {
-    format!("{ROOT}/session/{id}/observe/frame")
+/// Zenoh key a registered observer of session `id` asks (a query) for the session's newest
+/// frame and its reply: nothing is published for observers, so each gets what it asks for.
+pub fn observe_name(id: u64) -> String {
+    format!("{ROOT}/session/{id}/observe")
 }
 
-/// Zenoh key on which the daemon repeats session `id`'s replies for observers, droppable.
-pub fn observe_contacts_name(id: u64) -> String {
-    format!("{ROOT}/session/{id}/observe/contacts")
-}
+/// Selector parameter of an ask: the observer's token from the `observing` reply.
+pub const OBSERVER_PARAMETER: &str = "observer";
+/// Selector parameter of an ask: the newest frame number the observer has (the answer is a
+/// newer frame); absent, any frame will do.
+pub const AFTER_PARAMETER: &str = "after";
+/// Selector parameter of an ask that gives the observer's place back (no answer).
+pub const END_PARAMETER: &str = "end";
 
 #[cfg(test)]
 mod tests {
@@ -85,8 +88,8 @@ mod tests {
         let secret = Secret::from_bytes(std::array::from_fn(|i| i as u8));
         assert_eq!(client_alive_name(42, &secret), "lumen/session/42/client/732caea5f9833e0b2c42100effe25326");
         assert_eq!(session_live_name(42), "lumen/session/42/live");
-        assert_eq!(observe_frame_name(42), "lumen/session/42/observe/frame");
-        assert_eq!(observe_contacts_name(42), "lumen/session/42/observe/contacts");
+        assert_eq!(observe_name(42), "lumen/session/42/observe");
+        assert_eq!((OBSERVER_PARAMETER, AFTER_PARAMETER, END_PARAMETER), ("observer", "after", "end"));
         assert_eq!((CONTROL, daemon_alive_name("lab-1").as_str(), DAEMONS_ALIVE), ("lumen/control", "lumen/daemon/lab-1", "lumen/daemon/*"));
         assert_eq!(control_name_for("physics-a"), "lumen/control/physics-a");
         assert!(is_key_chunk("physics-a.lab") && !is_key_chunk("a/b") && !is_key_chunk("") && !is_key_chunk("a*"));

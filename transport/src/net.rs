@@ -12,14 +12,18 @@ use zenoh::sample::Sample;
 pub const FRAME_QUEUE: usize = 1;
 /// Replies a client keeps before the newest replaces the oldest.
 pub const CONTACTS_QUEUE: usize = 8;
-/// Samples an observer keeps (frames and replies together) before the newest wins.
-pub const OBSERVER_QUEUE: usize = 16;
 /// Frames and replies block rather than drop when the link is congested: a frame lost on the
 /// way would leave its client waiting for a reply that never comes.
 pub const CONGESTION: CongestionControl = CongestionControl::Block;
-/// What the daemon repeats for observers (`names::observe_*`) is dropped, not queued, when an
-/// observer's link is congested: a slow observer never holds up the session it watches.
+/// The congestion control of the Rust client's observer asks (`names::observe_name`), and so of
+/// the daemon's answers, which zenoh sends with the ask's: on a congested link an answer is
+/// dropped, not queued, and the next ask gets a newer frame.
 pub const OBSERVER_CONGESTION: CongestionControl = CongestionControl::Drop;
+/// Longest the daemon holds an ask waiting for a frame newer than its `after`, then ends it
+/// with no answer (the observer asks again).
+pub const ASK_HOLD: std::time::Duration = std::time::Duration::from_secs(1);
+/// An observer's place lapses after this long without an ask.
+pub const OBSERVER_IDLE: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// A zenoh configuration: `mode` (`client`, `peer` or `router`), no multicast scouting or
 /// gossip, the given endpoints to listen on and to connect to.
