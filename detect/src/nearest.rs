@@ -86,16 +86,41 @@ struct Local {
 }
 
 fn local(t: &TubeView, cache: &mut TubeCache, at: Patch) -> Local {
-    let b = t.spokes;
-    let k1 = next(at.k, b);
-    let cubic = cache.cubic(t, at.seg);
-    let (a0, a1) = (t.spoke(at.seg, at.k), t.spoke(at.seg + 1, at.k));
-    let (b0, b1) = (t.spoke(at.seg, k1), t.spoke(at.seg + 1, k1));
-    let (u, l) = (at.u, at.l);
-    let (va, vb) = (a0 + (a1 - a0) * u, b0 + (b1 - b0) * u);
-    let (da, db) = (a1 - a0, b1 - b0);
-    let c = &cubic.c;
-    Local { s: cubic.at(u) + va * (1.0 - l) + vb * l, su: cubic.tangent(u) + da * (1.0 - l) + db * l, sl: vb - va, suu: c[2] * 2.0 + c[3] * (6.0 * u), sul: db - da }
+    let mid = Midline::at(t, cache, at.seg, at.u);
+    mid.local(mid.spoke(t, at.k), mid.spoke(t, next(at.k, t.spokes)), at.l)
+}
+
+/// The midline of segment `seg` at `u` and its derivatives: what every strip of that section
+/// shares ([`Probe::consider`] reads three strips of one section).
+#[derive(Clone, Copy)]
+struct Midline {
+    seg: usize,
+    u: f32,
+    c: V3,
+    cu: V3,
+    cuu: V3,
+}
+
+impl Midline {
+    #[inline]
+    fn at(t: &TubeView, cache: &mut TubeCache, seg: usize, u: f32) -> Self {
+        let cubic = cache.cubic(t, seg);
+        let c = &cubic.c;
+        Self { seg, u, c: cubic.at(u), cu: cubic.tangent(u), cuu: c[2] * 2.0 + c[3] * (6.0 * u) }
+    }
+
+    /// Spoke `k` across the segment at `u`, and its change along it (`V_k(u)`, `dV_k`).
+    #[inline]
+    fn spoke(&self, t: &TubeView, k: usize) -> (V3, V3) {
+        let (a0, a1) = (t.spoke(self.seg, k), t.spoke(self.seg + 1, k));
+        (a0 + (a1 - a0) * self.u, a1 - a0)
+    }
+
+    /// The wall at `l` across the strip between spokes `a` and `b` ([`Midline::spoke`]s).
+    #[inline]
+    fn local(&self, (va, da): (V3, V3), (vb, db): (V3, V3), l: f32) -> Local {
+        Local { s: self.c + va * (1.0 - l) + vb * l, su: self.cu + da * (1.0 - l) + db * l, sl: vb - va, suu: self.cuu, sul: db - da }
+    }
 }
 
 impl Local {
@@ -306,12 +331,17 @@ impl Probe<'_> {
     /// Adds to `seeds` the three strips about `start`'s at `(seg, u)` that face the point
     /// within `keep2` (squared).
     fn consider(&mut self, seeds: &mut Seeds, start: Patch, seg: usize, u: f32, keep2: f32) {
-        let b = self.t.spokes;
-        for (k, l) in [(prev(start.k, b), 0.5), (start.k, start.l), (next(start.k, b), 0.5)] {
+        let (t, b) = (self.t, self.t.spokes);
+        // The section's midline and its four spokes, read once for the three strips.
+        let mid = Midline::at(t, self.cache, seg, u);
+        let o = self.cache.ring(t, seg).o;
+        let (k0, k1, k2) = (prev(start.k, b), start.k, next(start.k, b));
+        let v = [mid.spoke(t, k0), mid.spoke(t, k1), mid.spoke(t, k2), mid.spoke(t, next(k2, b))];
+        for (j, (k, l)) in [(k0, 0.5), (k1, start.l), (k2, 0.5)].into_iter().enumerate() {
             let at = Patch { seg, u, k, l };
-            let here = self.local(at);
+            let here = mid.local(v[j], v[j + 1], l);
             let d2 = (self.p - here.s).norm_squared();
-            if here.faces(self.p, self.cache.ring(self.t, seg).o, self.side) && d2 < keep2 && seeds.n < SEED_SLOTS {
+            if here.faces(self.p, o, self.side) && d2 < keep2 && seeds.n < SEED_SLOTS {
                 seeds.at[seeds.n] = Some((at, here, d2));
                 seeds.n += 1;
             }
