@@ -43,12 +43,12 @@ struct Newest {
 /// A session's observer side over zenoh: the queryable on `lumen/session/<id>/observe`, a
 /// dispatcher thread that checks each ask, and one thread per observer place that answers its
 /// asks (zenoh sends an answer with the ask's congestion control, so an observer whose link
-/// backs up delays only its own answers). Dropped with the session: the queryable goes, then
-/// the threads.
+/// backs up delays only its own answers). Dropped with the session: the queryable goes, and the
+/// threads end by themselves, not joined, so that an answer held up on a congested link never
+/// holds up the session's end.
 pub struct Observing {
     newest: Arc<Newest>,
     queryable: Option<Queryable<()>>,
-    dispatcher: Option<JoinHandle<()>>,
 }
 
 impl Observing {
@@ -67,11 +67,11 @@ impl Observing {
             .map_err(|e| TransportError::zenoh(format!("declaring the queryable {key}"), e))?;
         let newest = Arc::new(Newest::default());
         let shared = newest.clone();
-        let dispatcher = std::thread::Builder::new()
+        std::thread::Builder::new()
             .name(crate::registry::thread_name("zenoh-o", id))
             .spawn(move || dispatch(&entry, &shared, &asks))
             .map_err(|source| DaemonError::Spawn { thread: format!("observers of session {id}"), source })?;
-        Ok(Self { newest, queryable: Some(queryable), dispatcher: Some(dispatcher) })
+        Ok(Self { newest, queryable: Some(queryable) })
     }
 
     /// Hands observers frame `frame` (the message as received) and its reply; buffers are
@@ -84,14 +84,17 @@ impl Observing {
 
 impl Drop for Observing {
     fn drop(&mut self) {
-        self.newest.ended.store(true, Ordering::SeqCst);
+        // Under the lock: a place's thread between its look at `ended` and its wait would
+        // otherwise miss the wake-up and wait out its ask.
+        {
+            let _latest = self.newest.latest.lock().expect("latest lock");
+            self.newest.ended.store(true, Ordering::SeqCst);
+        }
         self.newest.changed.notify_all();
-        // Undeclaring drops the callback and its sender: the dispatcher then ends.
+        // Undeclaring drops the callback and its sender: the dispatcher then ends, dropping
+        // the places' senders, and their threads end after the ask each holds.
         if let Some(q) = self.queryable.take() {
             let _ = q.undeclare().wait();
-        }
-        if let Some(t) = self.dispatcher.take() {
-            let _ = t.join();
         }
     }
 }
@@ -104,7 +107,7 @@ struct Held {
     since: Instant,
 }
 
-/// The thread answering one observer place's asks.
+/// The thread answering one observer place's asks (it ends once `asks` is dropped).
 struct Worker {
     token: Token,
     asks: SyncSender<Held>,
@@ -141,10 +144,6 @@ fn dispatch(entry: &Entry, newest: &Arc<Newest>, asks: &Receiver<Query>) {
         // A place that lapsed or ended: its thread ends after its ask (its sender is dropped).
         let now = Instant::now();
         workers.retain(|w| entry.places.holds(&w.token, now) && !w.thread.is_finished());
-    }
-    for w in workers {
-        drop(w.asks);
-        let _ = w.thread.join();
     }
 }
 
