@@ -42,10 +42,12 @@ pub enum Error {
 }
 
 impl Error {
-    /// The daemon's error code, for [`Error::Refused`].
+    /// The daemon's error code, for [`Error::Refused`] and [`Error::ObserversFull`]
+    /// (`observers_full`, on either transport).
     pub fn code(&self) -> Option<ErrorCode> {
         match self {
             Error::Refused(e) => Some(e.code),
+            Error::ObserversFull { .. } => Some(ErrorCode::ObserversFull),
             _ => None,
         }
     }

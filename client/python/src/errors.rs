@@ -46,6 +46,7 @@ pub fn client(py: Python<'_>, e: Error) -> PyErr {
     match e {
         Error::NoDaemon { transport, .. } => make(py, "NoDaemonError", &message, &[("transport", obj(py, transport.to_string()))]),
         Error::Refused(c) => make(py, "RefusedError", &message, &[("code", obj(py, code_name(c.code))), ("reason", obj(py, c.message))]),
+        Error::ObserversFull { .. } => make(py, "RefusedError", &message, &[("code", obj(py, code_name(ErrorCode::ObserversFull))), ("reason", obj(py, message.clone()))]),
         Error::Timeout(t) => make(py, "TimeoutError", &message, &[("timeout", obj(py, t.as_secs_f64()))]),
         Error::Disconnected => make(py, "DisconnectedError", &message, &[]),
         Error::NoFrame => make(py, "NoFrameError", &message, &[]),

@@ -14,7 +14,7 @@ import subprocess
 import threading
 import time
 from pathlib import Path
-from typing import Iterator, List, Optional
+from typing import Iterator, List, Optional, Sequence
 
 import pytest
 
@@ -57,10 +57,10 @@ def lumen_bin() -> Path:
 class Daemon:
     """A ``lumen serve`` child with its prefix (and zenoh port)."""
 
-    def __init__(self, binary: Path, tag: str, zenoh: bool, prefix: Optional[str] = None) -> None:
+    def __init__(self, binary: Path, tag: str, zenoh: bool, prefix: Optional[str] = None, args: Sequence[str] = ()) -> None:
         self.prefix = prefix or unique_prefix(tag)
         self.port: Optional[int] = free_port() if zenoh else None
-        cmd = [str(binary), "serve", "--prefix", self.prefix, "--log", "warn"]
+        cmd = [str(binary), "serve", "--prefix", self.prefix, "--log", "warn", *args]
         if self.port is not None:
             # The tests read every session from status: list them (the default shows counts only).
             cmd += ["--zenoh-listen", f"tcp/127.0.0.1:{self.port}", "--zenoh-status", "sessions"]
@@ -117,12 +117,13 @@ class Daemon:
 
 @pytest.fixture
 def start_daemon(lumen_bin: Path) -> Iterator:
-    """``start_daemon(tag, zenoh=False, prefix=None)`` starts a daemon (on a prefix of its own
-    unless given one of an earlier daemon of the test); all are stopped at teardown."""
+    """``start_daemon(tag, zenoh=False, prefix=None, args=())`` starts a daemon (on a prefix of
+    its own unless given one of an earlier daemon of the test; ``args`` added to ``lumen
+    serve``'s); all are stopped at teardown."""
     started: List[Daemon] = []
 
-    def start(tag: str, zenoh: bool = False, prefix: Optional[str] = None) -> Daemon:
-        d = Daemon(lumen_bin, tag, zenoh, prefix)
+    def start(tag: str, zenoh: bool = False, prefix: Optional[str] = None, args: Sequence[str] = ()) -> Daemon:
+        d = Daemon(lumen_bin, tag, zenoh, prefix, args)
         started.append(d)
         return d
 

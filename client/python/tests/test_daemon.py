@@ -164,14 +164,34 @@ def test_a_bad_frame_gets_its_status_and_the_session_goes_on(start_daemon, trans
 
 
 @pytest.mark.parametrize("transport", TRANSPORTS)
+def test_observers_beyond_the_limit_are_refused_with_observers_full(start_daemon, transport):
+    d = start_daemon("full", zenoh=transport == "zenoh", args=["--max-observers", "1"])
+    s = d.client(transport).open_session(st.SPEC)
+    watcher = d.client(transport)
+    first = watcher.observe(s.id)
+    with pytest.raises(lumen.RefusedError) as e:
+        watcher.observe(s.id)
+    assert e.value.code == "observers_full" and "max_observers" in str(e.value), str(e.value)
+    # The place comes back once the first observer is closed.
+    first.close()
+    deadline = time.monotonic() + WAIT
+    while True:
+        try:
+            watcher.observe(s.id).close()
+            break
+        except lumen.RefusedError:
+            assert time.monotonic() < deadline, "the place never came back"
+            time.sleep(0.05)
+    s.close()
+
+
+@pytest.mark.parametrize("transport", TRANSPORTS)
 def test_an_observer_sees_the_sessions_frames_and_contacts(start_daemon, transport):
     d = start_daemon("obs", zenoh=transport == "zenoh")
     s = d.client(transport).open_session(st.SPEC)
     watcher = d.client(transport)
     obs = watcher.observe(s.id)
     assert obs.session == s.id
-    if transport == "zenoh":
-        time.sleep(0.3)  # let the observer's subscriptions reach the daemon's side
     first_round_trip(s, st.state(8.5))
     seen_frames, seen_replies = [], []
     for k, offset in enumerate(OFFSETS):
