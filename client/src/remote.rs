@@ -64,7 +64,8 @@ impl ZenohClient {
     }
 
     /// Sends one control request and waits up to `timeout` for the reply: a `describe`, an
-    /// `observe` or a `close` from the daemon that has the session, anything else from the nearest daemon.
+    /// `observe` or a `close` from the daemon that has the session, anything else from the
+    /// nearest daemon.
     pub fn request(&self, request: &ControlRequest, timeout: Duration) -> Result<ControlReply, Error> {
         match request {
             ControlRequest::Describe { .. } | ControlRequest::Observe { .. } | ControlRequest::Close { .. } => about_a_session(&self.session, &self.route, request, timeout),
