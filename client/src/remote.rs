@@ -6,7 +6,7 @@ use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, ControlRequest, DaemonInfo, ErrorCode, SessionInfo, StatusReport, Transport};
-use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, CONTACTS_MAGIC, FRAME_HEADER_BYTES};
+use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::{daemon_alive_name, observe_name, session_live_name, AFTER_PARAMETER, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER, END_PARAMETER, OBSERVER_PARAMETER};
 use lumen_transport::net::{config, tagged_queue, ASK_HOLD, CONGESTION, CONTACTS_QUEUE, OBSERVER_CONGESTION};
@@ -116,6 +116,7 @@ impl ZenohClient {
             token,
             ask: None,
             after: None,
+            reply: None,
             ended,
             info,
             frame_header: FrameHeader::default(),
@@ -456,6 +457,8 @@ pub(crate) struct ZenohObserver {
     ask: Option<(FifoChannelHandler<Reply>, Instant)>,
     /// The newest frame number seen (asks want a newer one).
     after: Option<u64>,
+    /// The daemon's reply that came with the last frame, not yet returned.
+    reply: Option<Vec<u8>>,
     /// Liveliness of the daemon's token for the session and of the daemon: a `Delete` ends the
     /// session.
     ended: [Subscriber<FifoChannelHandler<Sample>>; 2],
@@ -471,6 +474,11 @@ const LIVENESS_PERIOD: Duration = Duration::from_millis(50);
 
 impl ZenohObserver {
     pub(crate) fn next(&mut self, timeout: Duration) -> Result<Observed<'_>, Error> {
+        // The reply that came with the frame returned last.
+        if let Some(bytes) = self.reply.take() {
+            self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
+            return Ok(Observed::Contacts(ContactsView { header: &self.header, contacts: &self.contacts }));
+        }
         let deadline = Instant::now() + timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
@@ -501,8 +509,8 @@ impl ZenohObserver {
                     continue;
                 }
             };
-            let bytes = match reply.result() {
-                Ok(sample) => sample.payload().to_bytes(),
+            let sample = match reply.result() {
+                Ok(sample) => sample,
                 Err(e) => match parse_reply(&e.payload().to_bytes())? {
                     // The place lapsed (no ask for a while): take one again.
                     ControlReply::Error(c) if c.code == ErrorCode::NotObserver => {
@@ -513,14 +521,17 @@ impl ZenohObserver {
                     other => return Err(unexpected(other)),
                 },
             };
-            if bytes.len() >= 4 && bytes[..4] == CONTACTS_MAGIC.to_le_bytes() {
-                self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
-                return Ok(Observed::Contacts(ContactsView { header: &self.header, contacts: &self.contacts }));
-            }
-            let Ok(h) = FrameHeader::read(&bytes) else { continue };
-            let body = &bytes[FRAME_HEADER_BYTES..];
+            // The frame, then its reply, split where the attachment says.
+            let bytes = sample.payload().to_bytes();
+            let split = sample.attachment().map(|a| a.to_bytes()).and_then(|a| <[u8; 8]>::try_from(&a[..]).ok()).map(u64::from_le_bytes);
+            let Some(split) = split.and_then(|n| usize::try_from(n).ok()).filter(|&n| n >= FRAME_HEADER_BYTES && n <= bytes.len()) else {
+                return Err(Error::Protocol(format!("an observer's answer of {} bytes without the frame's length (8 bytes) as its attachment", bytes.len())));
+            };
+            let (frame, reply) = bytes.split_at(split);
+            let h = FrameHeader::read(frame).map_err(|e| Error::Protocol(format!("the frame of an observer's answer: {e}")))?;
             self.state.clear();
-            self.state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+            self.state.extend(frame[FRAME_HEADER_BYTES..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+            self.reply = Some(reply.to_vec());
             self.frame_header = h;
             self.after = Some(h.frame);
             return Ok(Observed::Frame { header: &self.frame_header, state: &self.state });

@@ -201,13 +201,15 @@ fn admit(entry: &Entry, query: Query) -> Option<Held> {
     Some(Held { query, token, after, since: Instant::now() })
 }
 
-/// The answer: the frame, then its reply, both on the ask's key.
+/// The answer: one reply on the ask's key, the frame then its reply in one payload (shared
+/// buffers, no copy), the frame's length in bytes as the attachment (8 bytes, little-endian).
+/// One reply, so that whatever the asker's consolidation, a frame never comes without its reply.
 fn send(query: &Query, message: &ZBytes, reply: &ZBytes) {
-    for part in [message, reply] {
-        if query.reply(query.key_expr().clone(), part.clone()).wait().is_err() {
-            return;
-        }
-    }
+    let mut both = ZBytes::writer();
+    both.append(message.clone());
+    both.append(reply.clone());
+    let split = (message.len() as u64).to_le_bytes().to_vec();
+    let _ = query.reply(query.key_expr().clone(), both.finish()).attachment(split).wait();
 }
 
 fn refuse(query: &Query, code: ErrorCode, message: String) {

@@ -28,9 +28,9 @@ fn child_role() {
 /// written from `proto/README.md` section 4 with raw zenoh as a foreign client would: takes a
 /// place with `{"op":"observe"}`, then asks for newer frames with zenoh's default query
 /// settings (congestion control block) and sleeps half a second per answer it gets, as a
-/// careless VR front-end might. Asks and prints `observing` at start and on a stdin line `on`,
-/// stops asking and prints `paused` on `off`; when stdin closes, prints `saw N` (the answers it
-/// got) and ends.
+/// careless VR front-end might; checks each answer is a frame and the daemon's reply to it.
+/// Asks and prints `observing` at start and on a stdin line `on`, stops asking and prints
+/// `paused` on `off`; when stdin closes, prints `saw N` (the answers it got) and ends.
 #[test]
 fn slow_observer_role() {
     let (Ok(endpoint), Ok(session)) = (std::env::var("LUMEN_E2E_ENDPOINT"), std::env::var("LUMEN_E2E_OBSERVE")) else { return };
@@ -74,10 +74,12 @@ fn slow_observer_role() {
         while let Ok(reply) = replies.recv() {
             match reply.result() {
                 Ok(sample) => {
+                    // The frame, then the daemon's reply to it, split at the attachment's length.
                     let bytes = sample.payload().to_bytes();
-                    if bytes[..4] == *b"LMNF" {
-                        after = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
-                    }
+                    let split = u64::from_le_bytes(sample.attachment().unwrap().to_bytes()[..].try_into().unwrap()) as usize;
+                    assert_eq!((&bytes[..4], &bytes[split..split + 4]), (&b"LMNF"[..], &b"LMNC"[..]));
+                    after = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+                    assert_eq!(u64::from_le_bytes(bytes[split + 16..split + 24].try_into().unwrap()), after, "the reply is to the frame");
                     saw += 1;
                     std::thread::sleep(Duration::from_millis(500));
                 }
