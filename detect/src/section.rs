@@ -94,7 +94,21 @@ pub struct TubeCache {
     /// Per segment: this frame's [`TubeCache::slope_near`], and the reach it was asked for.
     slope_stamp: Vec<u32>,
     slope: Vec<(f32, f32)>,
+    /// The last window [`TubeCache::slope_near`] read whole or in part: the next one, a sample
+    /// further along, mostly overlaps it.
+    slope_window: SlopeWindow,
     pub alpha: f32,
+}
+
+/// Segments `lo ..= hi` whose largest [`Inner::slope`] is `max`, at segment `at`, in frame
+/// `stamp` (0: none).
+#[derive(Debug, Clone, Copy, Default)]
+struct SlopeWindow {
+    stamp: u32,
+    lo: usize,
+    hi: usize,
+    max: f32,
+    at: usize,
 }
 
 /// What bounds how steeply a segment's wall runs along the tube and how far its sections differ
@@ -296,6 +310,7 @@ impl TubeCache {
             self.slope_stamp.clear();
             self.slope_stamp.resize(rings.saturating_sub(1), 0);
             self.slope.resize(rings.saturating_sub(1), (0.0, 0.0));
+            self.slope_window = SlopeWindow::default();
             self.alpha = alpha;
             self.stamp = 0;
         }
@@ -307,6 +322,7 @@ impl TubeCache {
             self.inner_stamp.iter_mut().for_each(|s| *s = 0);
             self.seen_stamp.iter_mut().for_each(|s| *s = 0);
             self.slope_stamp.iter_mut().for_each(|s| *s = 0);
+            self.slope_window = SlopeWindow::default();
             self.stamp = 1;
         }
     }
@@ -405,10 +421,24 @@ impl TubeCache {
         let chord = (t.point(seg + 1) - t.point(seg)).norm();
         let n = if chord > 0.0 { ((along / chord).ceil() as usize).min(SLOPE_SEGMENTS) } else { SLOPE_SEGMENTS };
         let (lo, hi) = (seg.saturating_sub(n), (seg + n).min(t.segments() - 1));
-        let mut s = 0.0f32;
-        for j in lo..=hi {
-            s = s.max(self.inner_of(t, j).slope);
+        // The largest over the part shared with the last window is that window's, where its
+        // largest lies in the part: only the segments new to this window are read.
+        let w = self.slope_window;
+        let (mut s, mut at) = (0.0f32, lo);
+        let shared = w.stamp == self.stamp && lo <= w.at && w.at <= hi;
+        if shared {
+            (s, at) = (w.max, w.at);
         }
+        for j in lo..=hi {
+            if shared && w.lo <= j && j <= w.hi {
+                continue;
+            }
+            let v = self.inner_of(t, j).slope;
+            if v > s {
+                (s, at) = (v, j);
+            }
+        }
+        self.slope_window = SlopeWindow { stamp: self.stamp, lo, hi, max: s, at };
         self.slope[seg] = (along, s);
         self.slope_stamp[seg] = self.stamp;
         s
@@ -868,5 +898,47 @@ impl Around {
         let d_mid2 = (p - c).norm_squared();
         let (d, sign, k, l, normal, wall) = best;
         Gap { sd: sign * d, normal, wall, seg, u, k, l, not_star, rho2: d_mid2, size: scale, outside }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tube of `rings` rings of 8 spokes along x, 1 apart, the radii varying by up to
+    /// `wobble` without a pattern, and by three times that at ring 20 (a fold a window slides
+    /// past).
+    fn tube(rings: usize, wobble: f32) -> Vec<f32> {
+        let mut data = Vec::new();
+        for i in 0..rings {
+            data.extend([i as f32, 0.0, 0.0]);
+            for k in 0..8 {
+                let a = k as f32 * std::f32::consts::TAU / 8.0;
+                let fold = if i == 20 { 3.0 * wobble } else { 0.0 };
+                let r = 10.0 + fold + wobble * ((i * i * 31 + k * 17) % 97) as f32 / 97.0;
+                data.extend([0.0, r * a.cos(), r * a.sin()]);
+            }
+        }
+        data
+    }
+
+    /// Asked in any order, with reaches that differ, `slope_near` gives what a fresh cache
+    /// gives each segment alone (which reads its whole window), frame after frame.
+    #[test]
+    fn slope_near_reusing_the_last_window_equals_reading_it_whole() {
+        let rings = 60;
+        let asks: Vec<(usize, f32)> = (0..58).chain((0..58).rev()).chain([5, 40, 6, 39, 57, 0, 30, 31, 29]).map(|s| (s, if s % 5 == 0 { 7.5 } else { 3.0 })).collect();
+        let mut warm = TubeCache::default();
+        for (frame, wobble) in [0.0, 4.0, 9.0, 4.0].into_iter().enumerate() {
+            let data = tube(rings, wobble);
+            let t = TubeView::new(&data, rings, 8, V3::zeros());
+            warm.begin(rings, 0.5);
+            for &(seg, along) in &asks {
+                let mut fresh = TubeCache::default();
+                fresh.begin(rings, 0.5);
+                let (w, f) = (warm.slope_near(&t, seg, along), fresh.slope_near(&t, seg, along));
+                assert_eq!(w.to_bits(), f.to_bits(), "frame {frame}, segment {seg}, reach {along}: {w} against {f}");
+            }
+        }
     }
 }
