@@ -452,8 +452,8 @@ pub(crate) struct ZenohObserver {
     key: String,
     /// The place's token, 32 hex digits.
     token: String,
-    /// The ask in flight and when it was sent: its answers (the frame, then its reply) come on
-    /// this channel.
+    /// The ask in flight and when it was sent: its answer (the frame and its reply, in one) comes
+    /// on this channel.
     ask: Option<(FifoChannelHandler<Reply>, Instant)>,
     /// The newest frame number seen (asks want a newer one).
     after: Option<u64>,

@@ -54,15 +54,7 @@ impl Secret {
 
     /// Parses the 64 hex digits of an `opened` reply's `secret`.
     pub fn parse(hex: &str) -> Result<Self, BadSecret> {
-        let bad = || BadSecret { got: hex.chars().take(2 * SECRET_BYTES + 8).collect() };
-        if hex.len() != 2 * SECRET_BYTES {
-            return Err(bad());
-        }
-        let mut bytes = [0u8; SECRET_BYTES];
-        for (i, b) in bytes.iter_mut().enumerate() {
-            *b = u8::from_str_radix(hex.get(2 * i..2 * i + 2).ok_or_else(bad)?, 16).map_err(|_| bad())?;
-        }
-        Ok(Self::from_bytes(bytes))
+        from_hex(hex).map(Self::from_bytes).ok_or_else(|| BadSecret { got: hex.chars().take(2 * SECRET_BYTES + 8).collect() })
     }
 
     /// The 64 lowercase hex digits sent in the `opened` reply.
@@ -162,13 +154,77 @@ pub fn alive_message(session: u64) -> String {
     format!("lumen alive {session}")
 }
 
+/// Bytes of a zenoh observer's token (`proto/README.md`, section 4).
+pub const TOKEN_BYTES: usize = 16;
+
+/// A zenoh observer place's token: 128 random bits the `observing` reply gives, which every ask
+/// carries in hex; compared in constant time, as the secret is.
+#[derive(Clone, Copy)]
+pub struct Token {
+    bytes: [u8; TOKEN_BYTES],
+}
+
+impl std::fmt::Debug for Token {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Token(..)") // never printed: it is the place
+    }
+}
+
+impl PartialEq for Token {
+    fn eq(&self, other: &Self) -> bool {
+        bool::from(self.bytes.ct_eq(&other.bytes))
+    }
+}
+
+impl Token {
+    /// The token of these bytes (the daemon draws them from the OS).
+    pub fn from_bytes(bytes: [u8; TOKEN_BYTES]) -> Self {
+        Self { bytes }
+    }
+
+    /// Parses the 32 hex digits of an ask's `observer` parameter (`None` if they are not).
+    pub fn parse(hex: &str) -> Option<Self> {
+        from_hex(hex).map(Self::from_bytes)
+    }
+
+    /// The 32 lowercase hex digits sent in the `observing` reply.
+    pub fn to_hex(&self) -> String {
+        hex(&self.bytes)
+    }
+}
+
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// `N` bytes from `2 N` hex digits (either case); `None` for another length or a non-digit.
+fn from_hex<const N: usize>(hex: &str) -> Option<[u8; N]> {
+    if hex.len() != 2 * N {
+        return None;
+    }
+    let mut bytes = [0u8; N];
+    for (i, b) in bytes.iter_mut().enumerate() {
+        *b = u8::from_str_radix(hex.get(2 * i..2 * i + 2)?, 16).ok()?;
+    }
+    Some(bytes)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tokens_are_32_hex_digits() {
+        let t = Token::from_bytes(std::array::from_fn(|i| (i * 17) as u8));
+        let hex = t.to_hex();
+        assert_eq!(hex, "00112233445566778899aabbccddeeff");
+        assert_eq!(Token::parse(&hex), Some(t));
+        assert_eq!(Token::parse(&hex.to_uppercase()), Some(t));
+        assert_ne!(Token::parse("00112233445566778899aabbccddeefe"), Some(t));
+        for bad in ["", "0011", &format!("{hex}00"), "0g112233445566778899aabbccddeeff", "ééé112233445566778899aabbccddee"] {
+            assert_eq!(Token::parse(bad), None, "{bad}");
+        }
+    }
 
     #[test]
     fn tags_are_blake3_keyed_hashes_as_its_test_vectors_give_them() {

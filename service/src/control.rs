@@ -3,7 +3,7 @@
 use crate::access::Requester;
 use crate::error::DaemonError;
 use crate::registry::{Entry, Registry};
-use lumen_proto::auth::{Secret, SECRET_BYTES};
+use lumen_proto::auth::{Secret, Token, SECRET_BYTES, TOKEN_BYTES};
 use lumen_proto::session::{ControlError, ControlReply, ControlRequest, ErrorCode, SessionInfo, StatusReport, Transport, MAX_CONTROL_BYTES};
 use lumen_proto::wire::{CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES, PROTOCOL_VERSION};
 use lumen_proto::SceneSpec;
@@ -23,6 +23,11 @@ pub struct Plan {
 
 pub(crate) fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
     ControlReply::Error(ControlError { code, message: message.into() })
+}
+
+/// The answer about a session this daemon does not have.
+fn no_session(session: u64) -> ControlReply {
+    error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted"))
 }
 
 /// Bytes of shared memory an iceoryx2 session pins: the client's frame segment and the
@@ -58,14 +63,14 @@ pub fn handle(registry: &Registry, transport: Transport, requester: &Requester, 
         ControlRequest::Describe { session } => match registry.get(session) {
             // The stored info holds no secret: what describe tells an observer.
             Some(e) => ControlReply::Described(e.info.clone()),
-            None => error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted")),
+            None => no_session(session),
         },
         ControlRequest::Observe { session } => match registry.get(session) {
             Some(e) if e.info.transport != Transport::Zenoh => {
                 error(ErrorCode::BadRequest, format!("session {session} runs on iceoryx2: observe it there, by subscribing to its frame and contacts services (proto/README.md, section 4)"))
             }
             Some(e) => observe(&e, registry.limits.max_observers),
-            None => error(ErrorCode::UnknownSession, format!("no session {session}: it was closed, its client died, or the daemon restarted")),
+            None => no_session(session),
         },
         ControlRequest::Close { session, proof } => match registry.get(session) {
             Some(e) if !e.secret.verify_close(session, &proof) => {
@@ -201,13 +206,13 @@ fn open(
 /// A zenoh observer place of session `e` with a fresh token, or why not.
 fn observe(e: &Entry, max: usize) -> ControlReply {
     let session = e.info.session;
-    let Some(token) = random::<{ crate::places::TOKEN_BYTES }>() else {
+    let Some(token) = random::<TOKEN_BYTES>().map(Token::from_bytes) else {
         return error(ErrorCode::Internal, "the operating system gave no random bytes for the observer's token");
     };
     if !e.places.take(token, max, std::time::Instant::now()) {
         return error(ErrorCode::ObserversFull, format!("session {session} already has {max} observers, as many as the daemon allows (limits.max_observers): end one or raise the limit"));
     }
-    ControlReply::Observing { session, observer: crate::places::token_hex(&token) }
+    ControlReply::Observing { session, observer: token.to_hex() }
 }
 
 /// A fresh secret of 256 bits from the operating system's generator (`None` if it fails).

@@ -3,10 +3,11 @@
 //! gets only what it asked for (a slow one asks less often) and an unregistered subscriber gets
 //! nothing; the answers go out on threads of their own, never on the session's.
 
+use crate::control::error;
 use crate::error::DaemonError;
-use crate::places::{parse_token, Token};
 use crate::registry::Entry;
-use lumen_proto::session::{ControlError, ControlReply, ErrorCode};
+use lumen_proto::auth::Token;
+use lumen_proto::session::ErrorCode;
 use lumen_transport::names::{observe_name, AFTER_PARAMETER, END_PARAMETER, OBSERVER_PARAMETER};
 use lumen_transport::net::{ASK_HOLD, OBSERVER_IDLE};
 use lumen_transport::TransportError;
@@ -122,21 +123,26 @@ fn dispatch(entry: &Entry, newest: &Arc<Newest>, asks: &Receiver<Query>) {
         match asks.recv_timeout(SWEEP) {
             Ok(query) => {
                 let Some(held) = admit(entry, query) else { continue };
-                if !workers.iter().any(|w| w.token == held.token) {
-                    let (tx, rx) = sync_channel(1);
-                    let shared = newest.clone();
-                    match std::thread::Builder::new().name(crate::registry::thread_name("zenoh-w", entry.info.session)).spawn(move || answer(&shared, &rx)) {
-                        Ok(thread) => workers.push(Worker { token: held.token, asks: tx, thread }),
-                        Err(e) => {
-                            tracing::warn!("session {}: starting an observer's thread: {e}", entry.info.session);
-                            continue;
+                let worker = match workers.iter().position(|w| w.token == held.token) {
+                    Some(i) => &workers[i],
+                    None => {
+                        let (tx, rx) = sync_channel(1);
+                        let shared = newest.clone();
+                        match std::thread::Builder::new().name(crate::registry::thread_name("zenoh-w", entry.info.session)).spawn(move || answer(&shared, &rx)) {
+                            Ok(thread) => {
+                                workers.push(Worker { token: held.token, asks: tx, thread });
+                                &workers[workers.len() - 1]
+                            }
+                            Err(e) => {
+                                tracing::warn!("session {}: starting an observer's thread: {e}", entry.info.session);
+                                continue;
+                            }
                         }
                     }
-                }
-                // One ask at a time per place: one sent while another is held ends unanswered.
-                if let Some(w) = workers.iter().find(|w| w.token == held.token) {
-                    let _ = w.asks.try_send(held);
-                }
+                };
+                // A place's thread holds one ask and queues one more; a further ask ends
+                // unanswered.
+                let _ = worker.asks.try_send(held);
             }
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
@@ -169,7 +175,7 @@ fn answer(newest: &Newest, asks: &Receiver<Held>) {
             }
         };
         if let Some((message, reply)) = found {
-            send(&held.query, &message, &reply);
+            send(&held.query, message, reply);
         }
     }
 }
@@ -177,7 +183,7 @@ fn answer(newest: &Newest, asks: &Receiver<Held>) {
 /// Checks an ask: `None` when it was answered with an error or needs no answer (`end`).
 fn admit(entry: &Entry, query: Query) -> Option<Held> {
     let params = query.parameters();
-    let token = params.get(OBSERVER_PARAMETER).and_then(parse_token);
+    let token = params.get(OBSERVER_PARAMETER).and_then(Token::parse);
     let Some(token) = token.filter(|t| entry.places.touch(t, Instant::now())) else {
         refuse(
             &query,
@@ -204,15 +210,15 @@ fn admit(entry: &Entry, query: Query) -> Option<Held> {
 /// The answer: one reply on the ask's key, the frame then its reply in one payload (shared
 /// buffers, no copy), the frame's length in bytes as the attachment (8 bytes, little-endian).
 /// One reply, so that whatever the asker's consolidation, a frame never comes without its reply.
-fn send(query: &Query, message: &ZBytes, reply: &ZBytes) {
-    let mut both = ZBytes::writer();
-    both.append(message.clone());
-    both.append(reply.clone());
+fn send(query: &Query, message: ZBytes, reply: ZBytes) {
     let split = (message.len() as u64).to_le_bytes().to_vec();
+    let mut both = ZBytes::writer();
+    both.append(message);
+    both.append(reply);
     let _ = query.reply(query.key_expr().clone(), both.finish()).attachment(split).wait();
 }
 
 fn refuse(query: &Query, code: ErrorCode, message: String) {
-    let json = serde_json::to_vec(&ControlReply::Error(ControlError { code, message })).expect("replies serialise");
+    let json = serde_json::to_vec(&error(code, message)).expect("replies serialise");
     let _ = query.reply_err(json).wait();
 }
