@@ -31,9 +31,10 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("frame");
     g.sample_size(40).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
     for x in [1u32, 2, 4] {
-        // `signed+nearest`: contacts at the nearest point of the continuous wall.
+        // `signed`: the default, contacts at the nearest point of the continuous wall;
+        // `signed+sections`: each sample read in its own cross-section.
         for (name, method, prevalidated, nearest) in
-            [("signed", Method::Signed, true, false), ("signed+nearest", Method::Signed, true, true), ("signed+check", Method::Signed, false, false), ("thesis", Method::Thesis, false, false)]
+            [("signed", Method::Signed, true, true), ("signed+sections", Method::Signed, true, false), ("signed+check", Method::Signed, false, true), ("thesis", Method::Thesis, false, false)]
         {
             let (spec, states) = states(method, x);
             let mut d = Detector::new(&spec.validate().unwrap());

@@ -34,7 +34,7 @@ fn main() {
         pass(&scene, x, m, &opts, &mut Vec::new(), Some(&mut rec)).expect("pass");
         rec
     };
-    let (def, near) = (record(MethodKind::Default), record(MethodKind::Nearest));
+    let (def, near) = (record(MethodKind::Sections), record(MethodKind::Default));
     let radius = scene.spec.bodies.last().map_or(1.0, |b| b.radius(0));
     const BANDS: [f32; 7] = [0.05, 0.1, 0.2, 0.3, 0.5, 1.0, f32::INFINITY];
     let mut bands: Vec<(Vec<f32>, Vec<f32>)> = vec![(Vec::new(), Vec::new()); BANDS.len()];

@@ -33,9 +33,9 @@ pub struct DetectArgs {
     /// Spoke counts B, comma-separated.
     #[arg(long, value_delimiter = ',')]
     pub spokes: Option<Vec<usize>>,
-    /// Methods, comma-separated: default, refined (the default with one axial re-projection),
-    /// nearest (the default with contacts at the nearest point of the continuous wall), thesis,
-    /// parry.
+    /// Methods, comma-separated: default (contacts at the nearest point of the continuous wall),
+    /// sections (each sample read in its own cross-section), refined (sections with one axial
+    /// re-projection), thesis, parry.
     #[arg(long, value_delimiter = ',', value_parser = parse_method)]
     pub methods: Option<Vec<MethodKind>>,
     /// Frames per scene (1 mm of insertion each).

@@ -55,7 +55,7 @@ pub enum Error {
     #[error("bad options: {flag} {value}: expected {expected}")]
     BadFlag { flag: &'static str, value: String, expected: &'static str },
     /// `--methods` names no method.
-    #[error("unknown method {name:?} (default, refined, nearest, thesis or parry)")]
+    #[error("unknown method {name:?} (default, sections, refined, thesis or parry)")]
     UnknownMethod { name: String },
     /// A list of the sweep is empty.
     #[error("bad options: scenes, methods, precisions and spokes must not be empty")]
@@ -140,26 +140,27 @@ pub enum Error {
 #[serde(rename_all = "snake_case")]
 pub enum MethodKind {
     Thesis,
+    /// The signed method as a spec gets it by default: contacts at the nearest point of the
+    /// continuous wall.
     Default,
-    /// The default method with contacts at the nearest point of the continuous wall (the
-    /// spec's `nearest`).
-    Nearest,
-    /// The default method with one axial re-projection of every reading (the spec's
-    /// `refine: 1`).
+    /// The signed method reading each sample in its own cross-section (the spec's
+    /// `nearest: false`, the `sections` reading; the default before 2026-12-05).
+    Sections,
+    /// `sections` with one axial re-projection of every reading (the spec's `refine: 1`).
     Refined,
     Parry,
 }
 
 impl MethodKind {
     /// All five, in report order.
-    pub const ALL: [MethodKind; 5] = [MethodKind::Default, MethodKind::Refined, MethodKind::Nearest, MethodKind::Thesis, MethodKind::Parry];
+    pub const ALL: [MethodKind; 5] = [MethodKind::Default, MethodKind::Sections, MethodKind::Refined, MethodKind::Thesis, MethodKind::Parry];
 
-    /// `thesis`, `default`, `refined`, `nearest` or `parry`.
+    /// `thesis`, `default`, `sections`, `refined` or `parry`.
     pub fn name(self) -> &'static str {
         match self {
             MethodKind::Thesis => "thesis",
             MethodKind::Default => "default",
-            MethodKind::Nearest => "nearest",
+            MethodKind::Sections => "sections",
             MethodKind::Refined => "refined",
             MethodKind::Parry => "parry",
         }

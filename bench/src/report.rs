@@ -200,8 +200,8 @@ fn short(v: f64) -> String {
 fn method_rank(m: &str) -> usize {
     match m {
         "default" => 0,
-        "refined" => 1,
-        "nearest" => 2,
+        "sections" => 1,
+        "refined" => 2,
         "thesis" => 3,
         "parry" => 4,
         _ => 5,
@@ -525,7 +525,7 @@ impl Report {
             const FLOOR: f64 = 1e-4;
             let colour = |m: &str| match m {
                 "default" => RGBColor(0, 114, 178),
-                "nearest" => RGBColor(204, 121, 167),
+                "sections" => RGBColor(204, 121, 167),
                 "refined" => RGBColor(86, 180, 233),
                 "thesis" => RGBColor(213, 94, 0),
                 "parry" => RGBColor(0, 158, 115),

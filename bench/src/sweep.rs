@@ -47,7 +47,7 @@ impl Runner {
             MethodKind::Parry => Runner::Parry(ParryBaseline::new(spec, state, opts.parry_shape)?),
             _ => {
                 let mut d = Detector::new(&spec.validate()?);
-                if matches!(method, MethodKind::Default | MethodKind::Nearest) {
+                if matches!(method, MethodKind::Default | MethodKind::Sections) {
                     d.set_refine(opts.refine);
                 }
                 Runner::Detector(d)
@@ -72,7 +72,7 @@ pub fn spec_for(scene: &SceneData, x: u32, method: MethodKind) -> SceneSpec {
         MethodKind::Thesis => Method::Thesis,
         _ => Method::Signed,
     };
-    s.nearest = method == MethodKind::Nearest;
+    s.nearest = !matches!(method, MethodKind::Sections | MethodKind::Refined);
     s.refine = u32::from(method == MethodKind::Refined);
     s
 }

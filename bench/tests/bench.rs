@@ -272,17 +272,17 @@ fn tiny_sweep_writes_a_complete_report() {
         let d = report.run("generated", "default", 12, x).unwrap();
         let th = report.run("generated", "thesis", 12, x).unwrap();
         let pa = report.run("generated", "parry", 12, x).unwrap();
-        let ne = report.run("generated", "nearest", 12, x).unwrap();
+        let se = report.run("generated", "sections", 12, x).unwrap();
         let re = report.run("generated", "refined", 12, x).unwrap();
         // Ratios against oneself are exactly 1; the others are each other's inverses.
         assert_eq!(d.time_vs_default, Some(1.0));
         assert_eq!(th.speedup_vs_thesis, Some(1.0));
         assert_eq!(pa.speedup_vs_parry, Some(1.0));
         assert!(d.speedup_vs_thesis.unwrap() > 0.0 && d.speedup_vs_parry.unwrap() > 0.0);
-        assert!(ne.time_vs_default.unwrap() > 0.0 && re.time_vs_default.unwrap() > 0.0);
+        assert!(se.time_vs_default.unwrap() > 0.0 && re.time_vs_default.unwrap() > 0.0);
         // All five judged on the same samples.
         assert_eq!(d.metrics.escaped_total, th.metrics.escaped_total);
-        assert_eq!(d.metrics.escaped_total, ne.metrics.escaped_total);
+        assert_eq!(d.metrics.escaped_total, se.metrics.escaped_total);
         assert_eq!(d.metrics.escaped_total, re.metrics.escaped_total);
         assert_eq!(d.metrics.penetrating_dense, pa.metrics.penetrating_dense);
         assert!(d.metrics.contacts_evaluated > 0, "the scope presses on the wall");
@@ -300,7 +300,7 @@ fn tiny_sweep_writes_a_complete_report() {
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("| generated | 12 | 101 | 2 | default |"), "{md}");
     let svg = std::fs::read_to_string(dir.join("speed_vs_error.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("scene: generated") && svg.contains("default") && svg.contains("refined") && svg.contains("nearest"));
+    assert!(svg.starts_with("<svg") && svg.contains("scene: generated") && svg.contains("default") && svg.contains("refined") && svg.contains("sections"));
 
     // The JSON: the keys the issue requires on every run, the revision and the machine.
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
@@ -328,7 +328,7 @@ fn tiny_sweep_writes_a_complete_report() {
         for k in keys {
             assert!(r.get(k).is_some(), "run without {k}: {r}");
         }
-        assert!(["thesis", "default", "refined", "nearest", "parry"].contains(&r["method"].as_str().unwrap()));
+        assert!(["thesis", "default", "sections", "refined", "parry"].contains(&r["method"].as_str().unwrap()));
         assert_eq!(r["scene"], "generated");
         assert_eq!(r["spokes"], 12);
     }

@@ -213,8 +213,12 @@ fn detect_with(scene: &Scene, set: impl FnOnce(&mut lumen_detect::Detector)) -> 
     d.detect(&scene.state()).unwrap().to_vec()
 }
 
+/// The `sections` reading with `refine` axial re-projections.
 fn with_refine(colon: &Tube, scope: &Rod, refine: u32) -> Vec<Contact> {
-    signed_with(colon, scope, |d| d.set_refine(refine))
+    signed_with(colon, scope, |d| {
+        d.set_nearest(false);
+        d.set_refine(refine)
+    })
 }
 
 #[test]
@@ -249,7 +253,7 @@ fn a_scene_declares_its_refinement() {
     // The spec's `refine` is the detector's: the same contacts as set on the detector, and the
     // refined depths nearer the reference on folds sharper than the rod.
     let (colon, scope) = haustral(3.0, 25.0);
-    let declared = detect_with(&interior(colon.clone(), scope.clone(), 4, Method::Signed).refine(1), |_| {});
+    let declared = detect_with(&interior(colon.clone(), scope.clone(), 4, Method::Signed).nearest(false).refine(1), |_| {});
     assert_eq!(declared, with_refine(&colon, &scope, 1));
     let (once, never) = (agree(&colon, &scope, 4, &declared, 0.1).worst, agree(&colon, &scope, 4, &with_refine(&colon, &scope, 0), 0.1).worst);
     assert!(once < 0.6 * never, "depth error {once} refined once, {never} never");
@@ -276,6 +280,8 @@ fn nearest_wall_points_on_folds() {
     // Declared in the spec (as a daemon client would) it is the same as set on the detector.
     let declared = run(&interior(colon.clone(), scope.clone(), 4, Method::Signed).nearest(true));
     assert_eq!(declared, with_nearest(&colon, &scope, true));
+    // It is what a spec that says nothing gets.
+    assert_eq!(declared, run(&interior(colon.clone(), scope.clone(), 4, Method::Signed)));
     assert_ne!(declared, with_nearest(&colon, &scope, false));
     let on = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, true), 0.05);
     let off = agree(&colon, &scope, 4, &with_nearest(&colon, &scope, false), 0.05);

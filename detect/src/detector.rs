@@ -191,11 +191,11 @@ impl Detector {
         self.refine = refine;
     }
 
-    /// Whether the signed method moves each contact to the nearest point of the continuous
-    /// wall ([`crate::nearest`]; the spec's `nearest`, false by default). Off, a contact keeps
-    /// the section's own foot and the distance to the wall's tangent plane there: cheaper, and
-    /// tenths of a millimetre off where the wall slopes along the tube, millimetres either way
-    /// on a steep fold ([`crate::nearest`] says why).
+    /// Whether the signed method puts each contact at the nearest point of the continuous wall
+    /// ([`crate::nearest`]; the spec's `nearest`, true by default). Off (the `sections`
+    /// reading), a contact keeps the section's own foot and the distance to the wall's tangent
+    /// plane there: cheaper, and tenths of a millimetre off where the wall slopes along the
+    /// tube, millimetres either way on a steep fold ([`crate::nearest`] says why).
     pub fn set_nearest(&mut self, on: bool) {
         self.nearest = on;
     }

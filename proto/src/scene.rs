@@ -38,13 +38,14 @@ pub struct SceneSpec {
     /// Which detection method runs.
     #[serde(default)]
     pub method: Method,
-    /// `signed` only: move each contact from its sample's own cross-section to the nearest
-    /// point of the continuous wall (exact depth and the distance's own direction as normal,
-    /// continuous as the sample moves; several times the default's detection time, see
-    /// docs/decisions/detect.md). Off by default:
-    /// on a wall that folds (ring planes crossing inside the lumen at bends tighter than the
-    /// tube is wide) the cross-section's reading is the one a physics engine stays stable on.
-    #[serde(default)]
+    /// `signed` only: each contact at the nearest point of the continuous wall (the distance
+    /// to the wall itself, and the direction to it as normal, continuous as the sample moves).
+    /// On by default, since a real colon's folds put the wall's nearest point in another
+    /// cross-section than the sample's (docs/decisions/detect.md). `false` declares the
+    /// `sections` reading: each contact in its sample's own cross-section, at the distance to
+    /// the wall's tangent plane there; cheaper, and exact only where the wall is smooth and
+    /// gently sloped along the tube.
+    #[serde(default = "default_nearest")]
     pub nearest: bool,
     /// `signed` only: axial re-projections of every sample's section reading (0 to 4, default
     /// 0). Each moves the section to the foot of the last reading and reads the sample again
@@ -61,6 +62,9 @@ fn default_precision() -> u32 {
 }
 fn default_alpha() -> f32 {
     0.5
+}
+fn default_nearest() -> bool {
+    true
 }
 
 /// One body of the scene.
@@ -168,7 +172,7 @@ impl BodySpec {
 impl SceneSpec {
     /// A scene of these bodies and pairs with default precision, alpha, margin and method.
     pub fn new(bodies: Vec<BodySpec>, pairs: Vec<PairSpec>) -> Self {
-        Self { bodies, pairs, precision: default_precision(), alpha: default_alpha(), margin: 0.0, method: Method::default(), nearest: false, refine: 0 }
+        Self { bodies, pairs, precision: default_precision(), alpha: default_alpha(), margin: 0.0, method: Method::default(), nearest: default_nearest(), refine: 0 }
     }
 
     /// Index of the body called `name`.
@@ -198,9 +202,9 @@ mod tests {
         assert_eq!(parsed, spec());
         assert_eq!(parsed.validate().unwrap().pairs(), [PairIndex { a: 1, b: 0, kind: ContactKind::Interior }]);
         assert_eq!(parsed.bodies[0].floats(), 10 * 9 * 3);
-        assert!(!parsed.nearest, "contacts in the sample's own section unless declared");
-        let on: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""nearest":true,"pairs""#)).unwrap();
-        assert!(on.nearest);
+        assert!(parsed.nearest, "contacts at the nearest wall point unless the sections are declared");
+        let on: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""nearest":false,"pairs""#)).unwrap();
+        assert!(!on.nearest, "the sections reading, declared");
         assert_eq!(parsed.refine, 0, "one reading per sample unless declared");
         let refined: SceneSpec = serde_json::from_str(&json.replace(r#""pairs""#, r#""refine":2,"pairs""#)).unwrap();
         assert_eq!((refined.refine, refined.validate().is_ok()), (2, true));

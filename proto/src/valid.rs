@@ -207,7 +207,7 @@ mod tests {
         );
         let tool = 2 * 4 + 1;
         assert_eq!(spec.validate().unwrap().max_contacts(), 637 * (1 + MAX_OTHER_WALLS) + tool);
-        spec.nearest = true;
+        spec.nearest = false;
         assert_eq!(spec.validate().unwrap().max_contacts(), 637 * (1 + MAX_OTHER_WALLS) + tool);
         spec.method = Method::Thesis;
         assert_eq!(spec.validate().unwrap().max_contacts(), 637 + tool, "the published method reports one wall per sample");

@@ -239,7 +239,8 @@ pub struct Scene {
     pub alpha: Option<f32>,
     pub margin: f32,
     pub method: Method,
-    pub nearest: bool,
+    /// `None`: the spec's default (the nearest wall point).
+    pub nearest: Option<bool>,
     pub refine: u32,
 }
 
@@ -272,9 +273,10 @@ impl Scene {
         self.method = m;
         self
     }
-    /// Contacts at the nearest point of the continuous wall (`SceneSpec::nearest`).
+    /// Contacts at the nearest point of the continuous wall (`SceneSpec::nearest`, the
+    /// default), or `false`: the `sections` reading.
     pub fn nearest(mut self, on: bool) -> Self {
-        self.nearest = on;
+        self.nearest = Some(on);
         self
     }
     /// Axial re-projections of every section reading (`SceneSpec::refine`).
@@ -294,7 +296,9 @@ impl Scene {
         }
         s.margin = self.margin;
         s.method = self.method;
-        s.nearest = self.nearest;
+        if let Some(on) = self.nearest {
+            s.nearest = on;
+        }
         s.refine = self.refine;
         s
     }
