@@ -7,6 +7,7 @@
 //! cargo build --release -p lumen-bench --example frames
 //! target/release/examples/frames 4 30                    # precision x, passes over 64 frames
 //! target/release/examples/frames 4 30 sections           # or refined: the spec's settings
+//! target/release/examples/frames 4 30 default 2          # the colon's rings twice as dense
 //! valgrind --tool=callgrind --toggle-collect='*detect_prevalidated*' target/release/examples/frames 4 3
 //! ```
 //!
@@ -31,7 +32,10 @@ fn main() {
         "refined" => (false, 1),
         other => panic!("setting {other:?}: default, sections or refined"),
     };
-    let colon = generate(&ColonParams::seeded(7));
+    // Rings this many times denser (the rings-doubled check of `lumen bench detect`: 2).
+    let denser: f32 = std::env::args().nth(4).map_or(1.0, |s| s.parse().expect("the rings' density factor"));
+    let base = ColonParams::seeded(7);
+    let colon = generate(&ColonParams { ring_spacing: base.ring_spacing / denser, ..base });
     let mut spec = None;
     let states: Vec<Vec<f32>> = Insertion { escapes: true, ..Insertion::default() }
         .frames(&colon, FRAMES, 1000.0, 1.0, 7)
