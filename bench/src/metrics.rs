@@ -23,8 +23,13 @@
 //!   the nearest wall point of the contact's point. Where two wall points are (almost) equally
 //!   near, "the nearest" is ill-defined (a point on the medial axis of a fold, or equidistant
 //!   from two faces of a crease), so the reference normal at the method's *own* wall point (the
-//!   reference queried at the reported wall point) is also accepted: the smaller of the two
-//!   angles counts;
+//!   reference queried at the reported wall point) is also accepted, and so is the distance's
+//!   own direction there (from the point to its reference wall point inside the wall, from the
+//!   wall point to it outside; where they lie [`GRADIENT_MM`] apart or more): on a crease of the
+//!   wall (a ring where the spokes change pace, a fold's valley) the nearest point is on the
+//!   crease, neither face's normal is the wall's, and the direction in which the distance
+//!   grows, the one that separates the two, lies between them. The smallest of the angles
+//!   counts;
 //! - **other walls**: a `lumen-detect` contact flagged `FLAG_OTHER_WALL` (bit 2) is a sample's
 //!   contact with another wall than its nearest (a corner, a pocket): it is judged on its own
 //!   wall point `w` (the reference's nearest wall point to the reported one): depth error
@@ -424,6 +429,22 @@ fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
+/// Least distance between a point and its wall point for the direction between them to count as
+/// a reference normal (mm): nearer, rounding turns it.
+pub const GRADIENT_MM: f32 = 0.05;
+
+/// The angle between `n` and the distance's direction at `p` to its wall point `w`, outward
+/// (from `p` to `w` where `sd < 0`, the point inside the wall; from `w` to `p` outside); 180
+/// where they lie less than [`GRADIENT_MM`] apart.
+pub fn gradient_angle(n: [f32; 3], p: [f32; 3], w: [f32; 3], sd: f32) -> f32 {
+    let d = V3::from(w) - V3::from(p);
+    if d.norm() < GRADIENT_MM {
+        return 180.0;
+    }
+    let out = if sd < 0.0 { d } else { -d };
+    angle_deg(n, out.into())
+}
+
 /// Angle between two directions, degrees (180 if either has no length).
 pub fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f32 {
     let (a, b) = (V3::from(a).cast::<f64>(), V3::from(b).cast::<f64>());
@@ -671,8 +692,11 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
         }
         tally.contacts += 1;
         let q = ans.q;
-        let (ref_depth, nerr) =
-            if other_wall { (r - dist(p, wall.q.point), angle_deg(c.normal, wall.q.normal)) } else { (q.sd + r, angle_deg(c.normal, q.normal).min(angle_deg(c.normal, wall.q.normal))) };
+        let (ref_depth, nerr) = if other_wall {
+            (r - dist(p, wall.q.point), angle_deg(c.normal, wall.q.normal).min(gradient_angle(c.normal, p, wall.q.point, -1.0)))
+        } else {
+            (q.sd + r, angle_deg(c.normal, q.normal).min(angle_deg(c.normal, wall.q.normal)).min(gradient_angle(c.normal, p, q.point, q.sd)))
+        };
         let err = (c.depth - ref_depth).abs();
         let lb = ans.local_bound;
         tally.depth_err.push(err);
@@ -780,5 +804,24 @@ pub fn evaluate(truth: &Truth, x: usize, frame: usize, reported: &[Reported], an
                 place: hit.and_then(|c| c.place),
             });
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_distances_direction_is_outward_and_only_where_the_wall_is_far_enough() {
+        // Inside the wall (sd < 0) the outward normal points from the point to its wall point;
+        // outside, from the wall point to the point.
+        let (p, w) = ([1.0, 2.0, 3.0], [1.0, 2.0, 5.0]);
+        assert!(gradient_angle([0.0, 0.0, 1.0], p, w, -2.0) < 1e-3);
+        assert!((gradient_angle([0.0, 0.0, -1.0], p, w, -2.0) - 180.0).abs() < 1e-3);
+        assert!(gradient_angle([0.0, 0.0, -1.0], p, w, 2.0) < 1e-3);
+        assert!((gradient_angle([1.0, 0.0, 1.0], p, w, -2.0) - 45.0).abs() < 1e-3);
+        // Nearer than GRADIENT_MM the direction is not taken: 180, which no minimum picks.
+        let near = [1.0, 2.0, 3.0 + 0.5 * GRADIENT_MM];
+        assert_eq!(gradient_angle([0.0, 0.0, 1.0], p, near, -0.5 * GRADIENT_MM), 180.0);
     }
 }

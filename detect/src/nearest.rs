@@ -208,13 +208,13 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
     // or, where other walls are sought, near enough to descend to one.
     let mut seeds = Seeds { at: [None; SEED_SLOTS], n: 0 };
     let mut n_own = 0;
-    if reach > 0.0 {
+    if reach > 0.0 && scan {
         let keep2 = if within > 0.0 { end.d2.max((within + reach) * (within + reach)) } else { end.d2 };
         n_own = probe.gather_seeds(&mut seeds, &from, start, reach, keep2);
         spare[1] = probe.second_descent(&mut seeds, &mut end);
-        if scan {
-            probe.pocket_descents(&from, start.k, reach + within, &mut end, &mut spare[2..]);
-        }
+        probe.pocket_descents(&from, start.k, reach + within, &mut end, &mut spare[2..]);
+    } else if reach > 0.0 {
+        spare[1] = probe.ring_descent(&from, start, reach, &mut end);
     }
     let Some((normal, dist)) = judge(&mut probe, &end) else {
         // Not a wall facing the way the side says (a fold seen from behind): the section's own
@@ -346,6 +346,64 @@ impl Probe<'_> {
                 seeds.n += 1;
             }
         }
+    }
+
+    /// Between the rod's ends, the second descent: from the nearest of the wall points on the
+    /// rings within `reach` along the tube (every ring, or every so many where more than
+    /// [`SCAN_RINGS`] lie within it either side), on the foot's strip at its `l` and the strips
+    /// either side at their middles, that is nearer than `end` and faces the point. The nearer
+    /// of the two ends becomes `end`; returns the other. A ring's wall points are its control
+    /// point and spokes themselves, a few operations each, where a seed in a section between
+    /// rings costs a walk to that section and the midline's cubic there; and a ring every
+    /// ring spacing samples the wall along the tube more densely than [`SEEDS`]' four sections.
+    fn ring_descent(&mut self, from: &Gap, start: Patch, reach: f32, end: &mut End) -> Option<End> {
+        let (t, p) = (self.t, self.p);
+        let (b, last) = (t.spokes, t.segments() - 1);
+        let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
+        let full = ((reach / spacing).ceil() as usize).min(MAX_CROSSINGS);
+        let stride = full.div_ceil(RING_SEED_RINGS).max(1);
+        let reach_rings = full.div_ceil(stride) * stride;
+        let lo = from.seg.saturating_sub(reach_rings);
+        let hi = (from.seg + 1 + reach_rings).min(t.rings - 1);
+        // The strips about the foot's, each the one after the one before.
+        let mut ks = [(start.k + b - (RING_STRIPS / 2) % b) % b; RING_STRIPS + 1];
+        for j in 1..=RING_STRIPS {
+            ks[j] = next(ks[j - 1], b);
+        }
+        let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if ks[j] == start.k { start.l } else { 0.5 });
+        // The nearest few nearer than `end`, nearest first: the nearest may face away.
+        let mut best = [(end.d2, usize::MAX, 0usize); RING_TRIES];
+        // Plain floats: the loop reads a hundred wall points a call.
+        for i in (lo..=hi).step_by(stride) {
+            let q = p - t.point(i);
+            let s = t.spokes_of(i);
+            let mut a = s[ks[0]];
+            for (j, &l) in ls.iter().enumerate() {
+                let e = s[ks[j + 1]];
+                let m = 1.0 - l;
+                let (dx, dy, dz) = (q.x - (a[0] * m + e[0] * l), q.y - (a[1] * m + e[1] * l), q.z - (a[2] * m + e[2] * l));
+                let d2 = dx * dx + dy * dy + dz * dz;
+                a = e;
+                if d2 < best[RING_TRIES - 1].0 {
+                    let mut at = RING_TRIES - 1;
+                    while at > 0 && d2 < best[at - 1].0 {
+                        best[at] = best[at - 1];
+                        at -= 1;
+                    }
+                    best[at] = (d2, i, j);
+                }
+            }
+        }
+        for &(_, i, j) in best.iter().take_while(|c| c.1 != usize::MAX) {
+            let (k, l) = (ks[j], ls[j]);
+            let at = if i > last { Patch { seg: last, u: 1.0, k, l } } else { Patch { seg: i, u: 0.0, k, l } };
+            let here = self.local(at);
+            if here.faces(p, self.cache.ring(t, at.seg).o, self.side) && (p - here.s).norm_squared() < end.d2 {
+                let other = descend(self, at, here, None, OTHER_ITERATIONS);
+                return Some(if other.d2 < end.d2 { std::mem::replace(end, other) } else { other });
+            }
+        }
+        None
     }
 
     /// The second descent, from the nearest seed, where that is nearer than `end`: the nearer
@@ -551,6 +609,16 @@ pub const OTHER_ITERATIONS: usize = 16;
 
 /// Descents at most from seeds along the tube in search of another wall.
 const OTHER_TRIES: usize = 2;
+
+/// Ring seeds [`Probe::ring_descent`] checks at most for one facing the point, nearest first.
+const RING_TRIES: usize = 3;
+
+/// Rings either side of the point's own that [`Probe::ring_descent`] reads at most (every so
+/// many where more lie within its reach).
+const RING_SEED_RINGS: usize = 8;
+
+/// Strips of each ring [`Probe::ring_descent`] seeds on: the foot's and three either side.
+const RING_STRIPS: usize = 7;
 
 /// Seeds at most: three strips in the point's own section and in each of [`SEEDS`]'.
 const SEED_SLOTS: usize = 3 * (1 + SEEDS.len());
