@@ -33,10 +33,14 @@
 //! **Seeds.** The distance to a curved wall has several local minima where the point sits in a
 //! pocket (walls on several sides) or faces a fold ahead of its own section (the end of the
 //! scope against a fold's flank: the flank is within the scope's radius along the tube but in
-//! no section the sample's centre lies in). So a second descent starts from the nearest of a
-//! few seeds on a wall facing the point: the strips beside the foot's in the point's own
-//! section, and the foot's strip and its neighbours in the sections half the rod's radius and
-//! the whole radius ahead and behind along the tube ([`SEEDS`]). The nearer end wins.
+//! no section the sample's centre lies in). So a second descent starts from the nearest seed on
+//! a wall facing the point that is nearer than the first descent's end. Between the rod's ends
+//! the seeds are wall points on the rings within the rod's radius along the tube (the foot's
+//! strip and three either side, at the middle of each; [`Probe::ring_descent`]): a ring's wall
+//! points are its control point and spokes, a few operations each. At the rod's two ends, which
+//! also seek other walls, they are the foot's strip and its neighbours in the point's own
+//! section and in the sections half the rod's radius and the whole radius ahead and behind
+//! along the tube ([`SEEDS`]). The nearer end wins.
 //!
 //! **Never a contact without a wall.** Every accepted step brings `S` nearer, so the result is
 //! never farther than `W0`; and the distance returned is always that of a point on the wall
