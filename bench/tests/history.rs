@@ -69,22 +69,25 @@ fn placements_anywhere_equal_a_fresh_session() {
 }
 
 #[test]
-fn placements_in_a_lumen_narrower_than_the_scope_match_the_dense_oracle_with_nearest() {
+fn placements_in_a_lumen_narrower_than_the_scope_match_the_dense_oracle_by_default() {
     // The narrow variant (4.5 and 5 mm radius where a 6.5 mm scope passes, easing back over
     // 25 mm: walls steeper than the scope is wide), placements anywhere in one session, read
-    // with `nearest`: each sample's deepest contact against its nearest wall as the dense
-    // oracle measures it. (The section reading alone is off by up to a millimetre on those
-    // ramps: docs/measurements.md.)
+    // as a spec gets it by default (the nearest wall point): each sample's deepest contact
+    // against its nearest wall as the dense oracle measures it. (The `sections` reading is off
+    // by up to a millimetre on those ramps: docs/measurements.md.)
     let colon = generate(&ColonKind::Narrow.generated(7).unwrap());
     let reference = Reference::new(&colon, 0.5, 8);
     let mut mix = Mix(5);
-    let first = scene(&colon, placement(&colon, &mut mix), true);
+    let undeclared = |rod: Rod| Scene::new().tube("colon", colon.clone()).rod("scope", rod).pair("scope", "colon", ContactKind::Interior);
+    let first = undeclared(placement(&colon, &mut mix));
+    assert!(first.spec().nearest, "the default reading");
     let mut d = Detector::new(&first.spec().validate().unwrap());
     let (mut errors, mut missed) = (Vec::new(), Vec::new());
     for _ in 0..60 {
         let rod = placement(&colon, &mut mix);
-        let s = scene(&colon, rod.clone(), true);
+        let s = undeclared(rod.clone());
         let cs = d.detect(&s.state()).unwrap().to_vec();
+        assert_eq!(cs, fresh(&s), "a placement gets what a fresh session gets");
         for (i, (p, r)) in dense_rod(&rod, 0.5, 4).into_iter().enumerate() {
             let want = r + reference.query(p).sd;
             let got = cs.iter().filter(|c| c.sample as usize == i).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
