@@ -378,13 +378,18 @@ impl Probe<'_> {
         // The nearest few nearer than `end`, nearest first: the nearest may face away.
         let mut best = [(end.d2, usize::MAX, 0usize); RING_TRIES];
         // Plain floats: the loop reads a hundred wall points a call.
+        let ms: [f32; RING_STRIPS] = std::array::from_fn(|j| 1.0 - ls[j]);
         for i in (lo..=hi).step_by(stride) {
             let q = p - t.point(i);
             let s = t.spokes_of(i);
-            let mut a = s[ks[0]];
-            for (j, &l) in ls.iter().enumerate() {
-                let e = s[ks[j + 1]];
-                let m = 1.0 - l;
+            // The ring's spokes about the foot's, read as one block where they do not wrap.
+            let w: [[f32; 3]; RING_STRIPS + 1] = match s.get(ks[0]..ks[0] + RING_STRIPS + 1).and_then(|run| run.try_into().ok()) {
+                Some(run) => run,
+                None => std::array::from_fn(|j| s[ks[j]]),
+            };
+            let mut a = w[0];
+            for (j, (&l, &m)) in ls.iter().zip(&ms).enumerate() {
+                let e = w[j + 1];
                 let (dx, dy, dz) = (q.x - (a[0] * m + e[0] * l), q.y - (a[1] * m + e[1] * l), q.z - (a[2] * m + e[2] * l));
                 let d2 = dx * dx + dy * dy + dz * dz;
                 a = e;
