@@ -128,6 +128,15 @@ impl Midline {
 }
 
 impl Local {
+    /// Whether the squared distance to the wall from the point at `r` from here (`r = P - S`)
+    /// is convex here: its Hessian (see the module's formulas) positive definite.
+    #[inline]
+    fn convex_toward(&self, r: &V3) -> bool {
+        let (uu, ul, ll) = (self.su.norm_squared(), self.su.dot(&self.sl), self.sl.norm_squared());
+        let (nuu, nul) = (uu - r.dot(&self.suu), ul - r.dot(&self.sul));
+        nuu > 0.0 && nuu * ll - nul * nul > 0.0
+    }
+
     /// The wall's outward normal here, unnormalised (`o`: the ring's spoke orientation, see
     /// [`crate::section::Ring::o`]).
     #[inline]
@@ -289,7 +298,11 @@ impl Probe<'_> {
     fn first_descent(&mut self, from: &Gap, start: Patch, s0: Local, lost: &mut Option<End>) -> End {
         let r0 = self.p - s0.s;
         let floor = r0.dot(&s0.su).abs() <= FLOOR_COS * r0.norm() * s0.su.norm();
-        if floor {
+        if floor && s0.convex_toward(&r0) {
+            // A floor or crest the point is nearer than the wall curves away: the foot lies in
+            // the basin of a minimum, which one descent reaches.
+            descend(self, start, s0, None, ITERATIONS)
+        } else if floor {
             let up = descend(self, start, s0, Some(FLOOR_STEP), ITERATIONS);
             let down = descend(self, start, s0, Some(-FLOOR_STEP), ITERATIONS);
             let (win, lose) = if down.d2 < up.d2 { (down, up) } else { (up, down) };
