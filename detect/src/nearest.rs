@@ -11,7 +11,9 @@
 //! This descends on the surface itself, from `W0` or, where that is nearer, from the same
 //! strip position in the section through the tangent plane's foot (which lies, to first order,
 //! as far along the tube as the nearest point); from a valley floor or a fold crest, where the
-//! foot's own slope does not tell which way the nearest flank lies, both ways along the tube:
+//! foot's own slope does not tell which way the nearest flank lies, both ways along the tube,
+//! unless the distance is convex at the foot (the point nearer than the wall curves away: the
+//! foot lies in one minimum's basin):
 //!
 //! ```text
 //! minimise f(u, l) = |S(u, l) - P|^2 / 2,   r = P - S,
@@ -193,7 +195,8 @@ pub const OTHER_ANGLE_DEG: f32 = 30.0;
 ///
 /// Where the foot lies on the floor of a fold's valley or the crest of a fold (the wall runs
 /// nearly at right angles to the point there, within [`FLOOR_COS`]), which way along the tube
-/// the nearest flank lies is not told by the foot's own slope: both ways are tried.
+/// the nearest flank lies is not told by the foot's own slope: both ways are tried, unless the
+/// squared distance is convex at the foot (one descent then reaches its minimum).
 ///
 /// `reach`: how far along the tube the seeds of the second descent go (the rod's radius, in the
 /// scene's unit; 0: no seeds). `within`: for a point inside the wall, the distance (scene's
