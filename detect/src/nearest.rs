@@ -386,38 +386,43 @@ impl Probe<'_> {
         let lo = from.seg.saturating_sub(reach_rings);
         let hi = (from.seg + 1 + reach_rings).min(t.rings - 1);
         // The strips about the foot's, each the one after the one before.
-        let mut ks = [(start.k + b - (RING_STRIPS / 2) % b) % b; RING_STRIPS + 1];
-        for j in 1..=RING_STRIPS {
+        // (and one more, read and weighed 0: the lanes fill whole vectors).
+        let mut ks = [(start.k + b - (RING_STRIPS / 2) % b) % b; RING_STRIPS + 2];
+        for j in 1..ks.len() {
             ks[j] = next(ks[j - 1], b);
         }
         let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if ks[j] == start.k { start.l } else { 0.5 });
         // The nearest few nearer than `end`, nearest first: the nearest may face away.
         let mut best = [(end.d2, usize::MAX, 0usize); RING_TRIES];
-        // Plain floats: the loop reads a hundred wall points a call.
-        let ms: [f32; RING_STRIPS] = std::array::from_fn(|j| 1.0 - ls[j]);
-        for i in (lo..=hi).step_by(stride) {
+        // Each strip's weights, one per float of its spokes: the loop reads a ring's spokes as
+        // one flat block of floats and weighs them lane by lane (vectorised, where a loop over
+        // points would not be), then sums each point's three squares in order.
+        let ms: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { 1.0 - ls[f / 3] } else { 0.0 });
+        let lf: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { ls[f / 3] } else { 0.0 });
+        let mut i = lo;
+        while i <= hi {
             let q = p - t.point(i);
+            let qs: [f32; SEED_LANES] = std::array::from_fn(|f| q[f % 3]);
             let s = t.spokes_of(i);
             // The ring's spokes about the foot's, read as one block where they do not wrap.
-            let w: [[f32; 3]; RING_STRIPS + 1] = match s.get(ks[0]..ks[0] + RING_STRIPS + 1).and_then(|run| run.try_into().ok()) {
+            let w: [[f32; 3]; RING_STRIPS + 2] = match s.get(ks[0]..ks[0] + RING_STRIPS + 2).and_then(|run| run.try_into().ok()) {
                 Some(run) => run,
                 None => std::array::from_fn(|j| s[ks[j]]),
             };
-            let mut a = w[0];
-            for (j, (&l, &m)) in ls.iter().zip(&ms).enumerate() {
-                let e = w[j + 1];
-                let (dx, dy, dz) = (q.x - (a[0] * m + e[0] * l), q.y - (a[1] * m + e[1] * l), q.z - (a[2] * m + e[2] * l));
-                let d2 = dx * dx + dy * dy + dz * dz;
-                a = e;
-                if d2 < best[RING_TRIES - 1].0 {
-                    let mut at = RING_TRIES - 1;
-                    while at > 0 && d2 < best[at - 1].0 {
-                        best[at] = best[at - 1];
-                        at -= 1;
+            let d2 = ring_seed_d2(&qs, &w, &ms, &lf);
+            if d2.iter().any(|&d| d < best[RING_TRIES - 1].0) {
+                for (j, &d2) in d2.iter().enumerate() {
+                    if d2 < best[RING_TRIES - 1].0 {
+                        let mut at = RING_TRIES - 1;
+                        while at > 0 && d2 < best[at - 1].0 {
+                            best[at] = best[at - 1];
+                            at -= 1;
+                        }
+                        best[at] = (d2, i, j);
                     }
-                    best[at] = (d2, i, j);
                 }
             }
+            i += stride;
         }
         for &(_, i, j) in best.iter().take_while(|c| c.1 != usize::MAX) {
             let (k, l) = (ks[j], ls[j]);
@@ -645,6 +650,27 @@ const RING_SEED_RINGS: usize = 8;
 /// Strips of each ring [`Probe::ring_descent`] seeds on: the foot's and three either side.
 const RING_STRIPS: usize = 7;
 
+/// The floats of [`RING_STRIPS`] wall points.
+const STRIP_FLOATS: usize = 3 * RING_STRIPS;
+
+/// [`STRIP_FLOATS`] rounded up to whole vectors of 8 lanes (the lanes past it weighed 0).
+const SEED_LANES: usize = 24;
+
+/// The squared distances from `q` (repeated per point: `qs`) to the ring's seed points: point
+/// `j` lies at `m_j w_j + l_j w_{j+1}` of the spokes `w` (`ms`, `ls`: the weights, repeated per
+/// float, 0 past [`STRIP_FLOATS`]).
+#[inline]
+fn ring_seed_d2(qs: &[f32; SEED_LANES], w: &[[f32; 3]; RING_STRIPS + 2], ms: &[f32; SEED_LANES], ls: &[f32; SEED_LANES]) -> [f32; RING_STRIPS] {
+    let w = w.as_flattened();
+    let (a, e) = (&w[..SEED_LANES], &w[3..3 + SEED_LANES]);
+    let mut sq = [0.0f32; SEED_LANES];
+    for f in 0..SEED_LANES {
+        let d = qs[f] - (a[f] * ms[f] + e[f] * ls[f]);
+        sq[f] = d * d;
+    }
+    std::array::from_fn(|j| sq[3 * j] + sq[3 * j + 1] + sq[3 * j + 2])
+}
+
 /// Seeds at most: three strips in the point's own section and in each of [`SEEDS`]'.
 const SEED_SLOTS: usize = 3 * (1 + SEEDS.len());
 
@@ -784,5 +810,32 @@ fn edge_fraction(x: f32, d: f32) -> f32 {
         (x / -d).max(0.0)
     } else {
         1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lane-wise distances are each point's own `|q - (m a + l e)|^2`, bit for bit, summed
+    /// `(x^2 + y^2) + z^2` as a point at a time would: the scan picks the same seeds either way.
+    #[test]
+    fn ring_seed_distances_equal_a_point_at_a_time() {
+        let w: [[f32; 3]; RING_STRIPS + 2] = std::array::from_fn(|j| {
+            let a = j as f32 * 0.7;
+            [10.0 * a.cos() + 0.013 * j as f32, 9.0 * a.sin(), 0.37 * (j as f32 - 4.0)]
+        });
+        let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if j == 3 { 0.8125 } else { 0.5 });
+        let q = V3::new(1.25, -3.5, 0.3);
+        let qs: [f32; SEED_LANES] = std::array::from_fn(|f| q[f % 3]);
+        let ms: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { 1.0 - ls[f / 3] } else { 0.0 });
+        let lf: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { ls[f / 3] } else { 0.0 });
+        let d2 = ring_seed_d2(&qs, &w, &ms, &lf);
+        for j in 0..RING_STRIPS {
+            let (a, e, l) = (w[j], w[j + 1], ls[j]);
+            let m = 1.0 - l;
+            let (dx, dy, dz) = (q.x - (a[0] * m + e[0] * l), q.y - (a[1] * m + e[1] * l), q.z - (a[2] * m + e[2] * l));
+            assert_eq!(d2[j].to_bits(), (dx * dx + dy * dy + dz * dz).to_bits(), "strip {j}");
+        }
     }
 }
