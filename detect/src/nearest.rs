@@ -386,8 +386,7 @@ impl Probe<'_> {
         let lo = from.seg.saturating_sub(reach_rings);
         let hi = (from.seg + 1 + reach_rings).min(t.rings - 1);
         // The strips about the foot's, each the one after the one before.
-        // (and one more, read and weighed 0: the lanes fill whole vectors).
-        let mut ks = [(start.k + b - (RING_STRIPS / 2) % b) % b; RING_STRIPS + 2];
+        let mut ks = [(start.k + b - (RING_STRIPS / 2) % b) % b; RING_STRIPS + 1];
         for j in 1..ks.len() {
             ks[j] = next(ks[j - 1], b);
         }
@@ -395,17 +394,18 @@ impl Probe<'_> {
         // The nearest few nearer than `end`, nearest first: the nearest may face away.
         let mut best = [(end.d2, usize::MAX, 0usize); RING_TRIES];
         // Each strip's weights, one per float of its spokes: the loop reads a ring's spokes as
-        // one flat block of floats and weighs them lane by lane (vectorised, where a loop over
-        // points would not be), then sums each point's three squares in order.
-        let ms: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { 1.0 - ls[f / 3] } else { 0.0 });
-        let lf: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { ls[f / 3] } else { 0.0 });
+        // one flat run of floats and weighs them float by float, then sums each point's three
+        // squares in order (the same sums as a point at a time, in fewer instructions and less
+        // time: docs/decisions/detect.md).
+        let ms: [f32; STRIP_FLOATS] = std::array::from_fn(|f| 1.0 - ls[f / 3]);
+        let lf: [f32; STRIP_FLOATS] = std::array::from_fn(|f| ls[f / 3]);
         let mut i = lo;
         while i <= hi {
             let q = p - t.point(i);
-            let qs: [f32; SEED_LANES] = std::array::from_fn(|f| q[f % 3]);
+            let qs: [f32; STRIP_FLOATS] = std::array::from_fn(|f| q[f % 3]);
             let s = t.spokes_of(i);
             // The ring's spokes about the foot's, read as one block where they do not wrap.
-            let w: [[f32; 3]; RING_STRIPS + 2] = match s.get(ks[0]..ks[0] + RING_STRIPS + 2).and_then(|run| run.try_into().ok()) {
+            let w: [[f32; 3]; RING_STRIPS + 1] = match s.get(ks[0]..ks[0] + RING_STRIPS + 1).and_then(|run| run.try_into().ok()) {
                 Some(run) => run,
                 None => std::array::from_fn(|j| s[ks[j]]),
             };
@@ -653,21 +653,17 @@ const RING_STRIPS: usize = 7;
 /// The floats of [`RING_STRIPS`] wall points.
 const STRIP_FLOATS: usize = 3 * RING_STRIPS;
 
-/// [`STRIP_FLOATS`] rounded up to whole vectors of 8 lanes (the lanes past it weighed 0).
-const SEED_LANES: usize = 24;
-
 /// The squared distances from `q` (repeated per point: `qs`) to the ring's seed points: point
 /// `j` lies at `m_j w_j + l_j w_{j+1}` of the spokes `w` (`ms`, `ls`: the weights, repeated per
-/// float, 0 past [`STRIP_FLOATS`]).
+/// float).
 #[inline]
-fn ring_seed_d2(qs: &[f32; SEED_LANES], w: &[[f32; 3]; RING_STRIPS + 2], ms: &[f32; SEED_LANES], ls: &[f32; SEED_LANES]) -> [f32; RING_STRIPS] {
+fn ring_seed_d2(qs: &[f32; STRIP_FLOATS], w: &[[f32; 3]; RING_STRIPS + 1], ms: &[f32; STRIP_FLOATS], ls: &[f32; STRIP_FLOATS]) -> [f32; RING_STRIPS] {
     let w = w.as_flattened();
-    let (a, e) = (&w[..SEED_LANES], &w[3..3 + SEED_LANES]);
-    let mut sq = [0.0f32; SEED_LANES];
-    for f in 0..SEED_LANES {
+    let (a, e) = (&w[..STRIP_FLOATS], &w[3..3 + STRIP_FLOATS]);
+    let sq: [f32; STRIP_FLOATS] = std::array::from_fn(|f| {
         let d = qs[f] - (a[f] * ms[f] + e[f] * ls[f]);
-        sq[f] = d * d;
-    }
+        d * d
+    });
     std::array::from_fn(|j| sq[3 * j] + sq[3 * j + 1] + sq[3 * j + 2])
 }
 
@@ -821,15 +817,15 @@ mod tests {
     /// `(x^2 + y^2) + z^2` as a point at a time would: the scan picks the same seeds either way.
     #[test]
     fn ring_seed_distances_equal_a_point_at_a_time() {
-        let w: [[f32; 3]; RING_STRIPS + 2] = std::array::from_fn(|j| {
+        let w: [[f32; 3]; RING_STRIPS + 1] = std::array::from_fn(|j| {
             let a = j as f32 * 0.7;
             [10.0 * a.cos() + 0.013 * j as f32, 9.0 * a.sin(), 0.37 * (j as f32 - 4.0)]
         });
         let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if j == 3 { 0.8125 } else { 0.5 });
         let q = V3::new(1.25, -3.5, 0.3);
-        let qs: [f32; SEED_LANES] = std::array::from_fn(|f| q[f % 3]);
-        let ms: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { 1.0 - ls[f / 3] } else { 0.0 });
-        let lf: [f32; SEED_LANES] = std::array::from_fn(|f| if f < STRIP_FLOATS { ls[f / 3] } else { 0.0 });
+        let qs: [f32; STRIP_FLOATS] = std::array::from_fn(|f| q[f % 3]);
+        let ms: [f32; STRIP_FLOATS] = std::array::from_fn(|f| 1.0 - ls[f / 3]);
+        let lf: [f32; STRIP_FLOATS] = std::array::from_fn(|f| ls[f / 3]);
         let d2 = ring_seed_d2(&qs, &w, &ms, &lf);
         for j in 0..RING_STRIPS {
             let (a, e, l) = (w[j], w[j + 1], ls[j]);
