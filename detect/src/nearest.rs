@@ -387,7 +387,7 @@ impl Probe<'_> {
         let hi = (from.seg + 1 + reach_rings).min(t.rings - 1);
         // The strips about the foot's, each the one after the one before.
         let mut ks = [(start.k + b - (RING_STRIPS / 2) % b) % b; RING_STRIPS + 1];
-        for j in 1..ks.len() {
+        for j in 1..=RING_STRIPS {
             ks[j] = next(ks[j - 1], b);
         }
         let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if ks[j] == start.k { start.l } else { 0.5 });
@@ -397,10 +397,8 @@ impl Probe<'_> {
         // one flat run of floats and weighs them float by float, then sums each point's three
         // squares in order (the same sums as a point at a time, in fewer instructions and less
         // time: docs/decisions/detect.md).
-        let ms: [f32; STRIP_FLOATS] = std::array::from_fn(|f| 1.0 - ls[f / 3]);
-        let lf: [f32; STRIP_FLOATS] = std::array::from_fn(|f| ls[f / 3]);
-        let mut i = lo;
-        while i <= hi {
+        let (ms, lf) = strip_weights(&ls);
+        for i in (lo..=hi).step_by(stride) {
             let q = p - t.point(i);
             let qs: [f32; STRIP_FLOATS] = std::array::from_fn(|f| q[f % 3]);
             let s = t.spokes_of(i);
@@ -410,6 +408,7 @@ impl Probe<'_> {
                 None => std::array::from_fn(|j| s[ks[j]]),
             };
             let d2 = ring_seed_d2(&qs, &w, &ms, &lf);
+            // Most rings hold no seed nearer than those kept: one test of all seven first.
             if d2.iter().any(|&d| d < best[RING_TRIES - 1].0) {
                 for (j, &d2) in d2.iter().enumerate() {
                     if d2 < best[RING_TRIES - 1].0 {
@@ -422,7 +421,6 @@ impl Probe<'_> {
                     }
                 }
             }
-            i += stride;
         }
         for &(_, i, j) in best.iter().take_while(|c| c.1 != usize::MAX) {
             let (k, l) = (ks[j], ls[j]);
@@ -653,6 +651,12 @@ const RING_STRIPS: usize = 7;
 /// The floats of [`RING_STRIPS`] wall points.
 const STRIP_FLOATS: usize = 3 * RING_STRIPS;
 
+/// The weights `1 - l` and `l` of each strip's two spokes, repeated for each of its floats.
+#[inline]
+fn strip_weights(ls: &[f32; RING_STRIPS]) -> ([f32; STRIP_FLOATS], [f32; STRIP_FLOATS]) {
+    (std::array::from_fn(|f| 1.0 - ls[f / 3]), std::array::from_fn(|f| ls[f / 3]))
+}
+
 /// The squared distances from `q` (repeated per point: `qs`) to the ring's seed points: point
 /// `j` lies at `m_j w_j + l_j w_{j+1}` of the spokes `w` (`ms`, `ls`: the weights, repeated per
 /// float).
@@ -824,8 +828,7 @@ mod tests {
         let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if j == 3 { 0.8125 } else { 0.5 });
         let q = V3::new(1.25, -3.5, 0.3);
         let qs: [f32; STRIP_FLOATS] = std::array::from_fn(|f| q[f % 3]);
-        let ms: [f32; STRIP_FLOATS] = std::array::from_fn(|f| 1.0 - ls[f / 3]);
-        let lf: [f32; STRIP_FLOATS] = std::array::from_fn(|f| ls[f / 3]);
+        let (ms, lf) = strip_weights(&ls);
         let d2 = ring_seed_d2(&qs, &w, &ms, &lf);
         for j in 0..RING_STRIPS {
             let (a, e, l) = (w[j], w[j + 1], ls[j]);
