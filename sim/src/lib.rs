@@ -21,6 +21,8 @@
 //! - [`operator`]: the scripted hands (insert, pull back, angulate, twist, the hard push).
 //! - [`contact`]: Lumen contacts as XPBD contact constraints (mass-weighted, with the
 //!   contact's normal; corners held by carrying a sample's previous contact; inelastic).
+//! - [`crease`]: the faces beside a contact of the scope's ends at a concave crease of the
+//!   wall, added as contacts of their own (the detector reports nearest points only).
 //! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
 //!   [`ContactSource`] seam where the daemon plugs in.
 //! - [`config`]: [`SimParams`] and [`SimConfig`], what a run is made of besides the colon.
@@ -45,6 +47,7 @@
 
 pub mod config;
 pub mod contact;
+pub mod crease;
 pub mod daemon;
 pub mod operator;
 pub mod rod;

@@ -142,6 +142,8 @@ pub struct Wall {
     node_stiffness: f64,
     /// Rest spokes, relative to their control point.
     rest: Vec<[f32; 3]>,
+    /// Control points (they never move).
+    points: Vec<[f32; 3]>,
     slot: Vec<u32>,
     active: Vec<ActiveNode>,
     /// Blocks written last frame (their tips may differ from rest), and a stamp per block.
@@ -223,6 +225,7 @@ impl Wall {
             spoke_w,
             dir,
             rest: tube.radial.clone(),
+            points: tube.points.clone(),
             slot: vec![INACTIVE; rows * cols],
             active: Vec::new(),
             live: Vec::new(),
@@ -277,6 +280,14 @@ impl Wall {
     pub fn tip_dir(&self, tip: u32) -> V3d {
         let d = self.dir[tip as usize];
         V3d::new(d[0] as f64, d[1] as f64, d[2] as f64)
+    }
+
+    /// Where tip `tip` is now: its control point, rest spoke and outward displacement, mm.
+    pub fn tip(&self, tip: u32) -> V3d {
+        let p = self.points[tip as usize / self.spokes];
+        let s = self.rest[tip as usize];
+        let v = |a: [f32; 3]| V3d::new(a[0] as f64, a[1] as f64, a[2] as f64);
+        v(p) + v(s) + self.tip_dir(tip) * self.tip_displacement(tip)
     }
 
     /// Nearest node column of spoke `k` and the spoke's offset from it, in columns.

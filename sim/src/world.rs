@@ -211,6 +211,8 @@ pub struct FrameReport {
     pub max_speed_mm_s: f64,
     /// Point-substeps whose speed [`SimParams::max_speed_mm_s`] limited in the frame.
     pub speed_limited: u32,
+    /// Crease faces ([`crate::crease`]) among the frame's constraints.
+    pub crease_faces: u32,
     /// Rod sample of the deepest scope-colon contact, numbered as in the state (from the
     /// handle; `u32::MAX` if none).
     pub deepest_sample: u32,
@@ -227,6 +229,10 @@ pub struct World<S: ContactSource> {
     operator: Operator,
     contacts: ContactSet,
     raw: Vec<Contact>,
+    /// `raw` and the crease faces of the scope's ends ([`crate::crease`]): what the frame's
+    /// constraints are built from.
+    answered: Vec<Contact>,
+    crease_faces: u32,
     source: S,
     scene: ValidScene,
     rest_colon: Vec<f32>,
@@ -304,6 +310,8 @@ impl<S: ContactSource> World<S> {
             operator,
             contacts,
             raw: Vec::new(),
+            answered: Vec::new(),
+            crease_faces: 0,
             source,
             scene,
             rest_colon,
@@ -339,10 +347,7 @@ impl<S: ContactSource> World<S> {
         let mut it = 0;
         while it < FIT_ITERATIONS && self.deepest_interior() > FIT_TOLERANCE_MM {
             self.rod.rest_bend.clone_from(&self.initial_bend);
-            self.wall.begin_frame();
-            self.contacts.touch(&self.raw, SCOPE, TUBE, &self.rod, &mut self.wall);
-            self.wall.settle(self.config.sim.dt_s);
-            self.contacts.build(&self.raw, SCOPE, TUBE, &self.rod, &self.wall);
+            self.constrain(self.config.sim.dt_s);
             for _ in 0..n {
                 self.rod.predict(h, V3d::zeros());
                 self.wall.predict(h);
@@ -448,11 +453,7 @@ impl<S: ContactSource> World<S> {
         let dt = self.config.sim.dt_s;
         let drive = self.operator.advance(dt, self.handle_mm());
         self.apply_pose_commands(&drive);
-        // Contacts of the frame's start -> constraints.
-        self.wall.begin_frame();
-        self.contacts.touch(&self.raw, SCOPE, TUBE, &self.rod, &mut self.wall);
-        self.wall.settle(dt);
-        self.contacts.build(&self.raw, SCOPE, TUBE, &self.rod, &self.wall);
+        self.constrain(dt);
         let force = self.substeps(&drive);
         self.frame += 1;
         if !(self.rod.is_finite() && self.wall.is_finite()) {
@@ -466,6 +467,24 @@ impl<S: ContactSource> World<S> {
         self.report = self.measure(physics_s, (t2 - t1).as_secs_f64(), force, drive.phase);
         self.report.physics_s += t2.elapsed().as_secs_f64();
         Ok(&self.report)
+    }
+
+    /// The contacts of the frame's start, with the crease faces of the scope's ends, become
+    /// constraints: the wall nodes under them are touched, the wall settles, and each contact is
+    /// linearised about the current positions.
+    fn constrain(&mut self, dt: f64) {
+        self.answered.clear();
+        self.answered.extend_from_slice(&self.raw);
+        self.crease_faces = 0;
+        if self.config.sim.crease_faces {
+            let ends = [0, ((self.rod.len() - 1) * self.config.sim.precision.max(1) as usize) as u32];
+            let (r, margin) = (self.config.rod.radius_mm, self.config.sim.margin_mm as f64);
+            self.crease_faces = crate::crease::add_faces(&self.raw, SCOPE, TUBE, ends, &self.wall, r, margin, &mut self.answered) as u32;
+        }
+        self.wall.begin_frame();
+        self.contacts.touch(&self.answered, SCOPE, TUBE, &self.rod, &mut self.wall);
+        self.wall.settle(dt);
+        self.contacts.build(&self.answered, SCOPE, TUBE, &self.rod, &self.wall);
     }
 
     /// Rest curvature (the initial shape being released, the angulation turned by the roll)
@@ -610,6 +629,7 @@ impl<S: ContactSource> World<S> {
             length_error: self.rod.length() / self.rod.rest_length() - 1.0,
             max_speed_mm_s: self.rod.v.iter().map(|v| v.norm()).fold(0.0, f64::max),
             speed_limited: self.speed_limited,
+            crease_faces: self.crease_faces,
             deepest_sample: u32::MAX,
             physics_s,
             detect_s,

@@ -64,6 +64,9 @@ struct Args {
     /// continuous wall (the spec's `nearest` off).
     #[arg(long)]
     sections: bool,
+    /// No crease faces beside the contacts of the scope's ends (see `lumen_sim::crease`).
+    #[arg(long)]
+    no_crease_faces: bool,
     #[arg(long)]
     stretch_passes: Option<u32>,
     /// Contact projections per substep.
@@ -108,6 +111,7 @@ fn main() {
         sim.refine = v
     }
     sim.nearest &= !a.sections;
+    sim.crease_faces &= !a.no_crease_faces;
     if let Some(v) = a.stretch_passes {
         sim.stretch_passes = v
     }
