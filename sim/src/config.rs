@@ -42,9 +42,9 @@ pub struct SimParams {
     /// steep fold passes millimetres from any wall point and lets the scope through
     /// (measurements: `docs/decisions/sim.md`).
     pub nearest: bool,
-    /// The faces beside a contact of the scope's ends at a concave crease of the wall join the
-    /// frame's constraints (default true; see [`crate::crease`]): without them the end slides
-    /// along one face of a fold into the next within a frame.
+    /// The faces beside a contact of the scope's end segments at a concave crease of the wall
+    /// join the frame's constraints (default true; see [`crate::crease`]): without them the
+    /// end slides along one face of a fold into the next within a frame.
     pub crease_faces: bool,
     /// Speed limit of scope points and wall nodes, mm/s (default 1000; 0: none). A
     /// colonoscope's motions stay far below it; it keeps a frame's motion within about the

@@ -35,6 +35,8 @@
 //! bulge, and the outer wall) gets a contact for each face within the margin when the scene
 //! declares `nearest` (all but the nearest flagged `FLAG_OTHER_WALL`), and so does a sample in a
 //! lumen narrower than the scope, from the walls all around it; otherwise only the nearest face.
+//! Along the scope's two end segments the faces rising beside a contact at a concave crease,
+//! which are no nearest point of their own, join them too ([`crate::crease`]).
 //! Either way the nearest face can change from frame to frame, and each frame's contacts push
 //! the sample into a face they no longer hold. So a sample's contact of the previous frame is
 //! carried into this one, as another one-sided constraint with its own (still valid)

@@ -11,7 +11,7 @@
 //! contact holds the sample off it, and a frame that slides the end along `A` carries it into
 //! `B` before the next detection sees `B` (measured: `docs/decisions/sim.md`).
 //!
-//! So each contact of a rod end sample with the wall (patch of rings `i`, `i + 1` and spokes
+//! So each contact of a sample of the rod's end segments with the wall (patch of rings `i`, `i + 1` and spokes
 //! `k`, `k + 1`, wall point `W`, unit normal `n` from the sample towards the wall, sample centre
 //! `P = W - (r - depth) n`) is joined by a contact with each of the eight patches around it that
 //! - lies on the lumen side of the contact's tangent plane: `n . (C - W) < 0`, with `C` the
@@ -27,10 +27,12 @@
 //! four tips weighted `1/4` each, flagged [`FLAG_OTHER_WALL`]; it is rebuilt every frame from
 //! the wall as it is.
 //!
-//! **Only the ends.** Between its ends the scope lies along the wall, and a sample's neighbours
-//! along the rod hold it where a face rises; the ends meet folds head on (the detector seeks
-//! other walls only there for the same reason). Applied to every sample, the GCA run's scope
-//! left the colon (`docs/decisions/sim.md`).
+//! **Only the end segments.** Between its ends the scope lies along the wall, and a sample's
+//! neighbours along the rod hold it where a face rises; the ends meet folds head on (the
+//! detector seeks other walls only at the end samples for the same reason). The whole end
+//! segment, not its end sample alone: on an imported colon the sample half a segment behind the
+//! tip met a fold the same way. Applied to every sample, the GCA run's scope left the colon
+//! (`docs/decisions/sim.md`).
 
 use crate::wall::Wall;
 use lumen_detect::V3d;
@@ -46,15 +48,15 @@ fn f3(v: V3d) -> [f32; 3] {
 }
 
 /// Appends to `out` the crease faces (see the module's rules) of every interior contact in
-/// `contacts` between rod `rod_body`'s samples `ends` and tube `tube_body`, whose wall is
+/// `contacts` between rod `rod_body`'s samples in `ends` and tube `tube_body`, whose wall is
 /// `wall`; `radius_mm` is the rod's radius, `margin_mm` the detection margin. Returns how many
 /// it appended.
-pub fn add_faces(contacts: &[Contact], rod_body: u16, tube_body: u16, ends: [u32; 2], wall: &Wall, radius_mm: f64, margin_mm: f64, out: &mut Vec<Contact>) -> usize {
+pub fn add_faces(contacts: &[Contact], rod_body: u16, tube_body: u16, ends: [std::ops::RangeInclusive<u32>; 2], wall: &Wall, radius_mm: f64, margin_mm: f64, out: &mut Vec<Contact>) -> usize {
     let (rings, spokes) = (wall.rings(), wall.spokes());
     let reach = radius_mm + margin_mm;
     let start = out.len();
     for c in contacts {
-        if c.kind != ContactKind::Interior as u8 || c.body_a != rod_body || c.body_b != tube_body || !ends.contains(&c.sample) {
+        if c.kind != ContactKind::Interior as u8 || c.body_a != rod_body || c.body_b != tube_body || !ends.iter().any(|e| e.contains(&c.sample)) {
             continue;
         }
         if c.index_b as usize + 1 >= rings || c.spoke_b as usize >= spokes {
@@ -234,7 +236,7 @@ mod tests {
         let end = contact(636, w, n, r - gap);
         let middle = contact(300, w, n, r - gap);
         let mut out = vec![end, middle];
-        let added = add_faces(&[end, middle], 1, 0, [0, 636], &wall, r, 2.0, &mut out);
+        let added = add_faces(&[end, middle], 1, 0, [0..=0, 636..=636], &wall, r, 2.0, &mut out);
         assert!(added >= 3, "the fold's three strips at least: {added}");
         let faces = &out[2..];
         assert!(faces.iter().all(|f| f.sample == 636 && f.flags & FLAG_OTHER_WALL != 0 && f.weights_b == [0.25; 4]));
@@ -250,12 +252,12 @@ mod tests {
         let mut reported = contact(636, w, n, r - gap);
         reported.index_b = 5;
         let mut again = vec![end, reported];
-        add_faces(&[end, reported], 1, 0, [0, 636], &wall, r, 2.0, &mut again);
+        add_faces(&[end, reported], 1, 0, [0..=0, 636..=636], &wall, r, 2.0, &mut again);
         assert!(again[2..].iter().all(|f| (f.index_b, f.spoke_b) != (5, 0)));
         // A contact with another body, or a self contact, gets none.
         let mut other = end;
         other.body_b = 2;
         let mut none = Vec::new();
-        assert_eq!(add_faces(&[other], 1, 0, [0, 636], &wall, r, 2.0, &mut none), 0);
+        assert_eq!(add_faces(&[other], 1, 0, [0..=0, 636..=636], &wall, r, 2.0, &mut none), 0);
     }
 }

@@ -21,7 +21,7 @@
 //! - [`operator`]: the scripted hands (insert, pull back, angulate, twist, the hard push).
 //! - [`contact`]: Lumen contacts as XPBD contact constraints (mass-weighted, with the
 //!   contact's normal; corners held by carrying a sample's previous contact; inelastic).
-//! - [`crease`]: the faces beside a contact of the scope's ends at a concave crease of the
+//! - [`crease`]: the faces beside a contact of the scope's end segments at a concave crease of the
 //!   wall, added as contacts of their own (the detector reports nearest points only).
 //! - [`world`]: one frame (operator, constraints, substeps, state, detection, figures) and the
 //!   [`ContactSource`] seam where the daemon plugs in.

@@ -10,7 +10,8 @@
 //! 1. the operator gives the frame's drive (handle target, force limit, roll, angulation, tip
 //!    hold);
 //! 2. the contacts detected at the end of the previous frame (that is, on the positions this
-//!    frame starts from) become constraints: the wall nodes under them are activated, the
+//!    frame starts from), with the crease faces beside those of the scope's end segments
+//!    ([`crate::crease`]), become constraints: the wall nodes under them are activated, the
 //!    wall settles (spreads, releases, links its nodes), each contact is linearised about the
 //!    current positions, and a sample's contact of the frame before is carried along where
 //!    its normal turned (see [`crate::contact`]);
@@ -229,7 +230,7 @@ pub struct World<S: ContactSource> {
     operator: Operator,
     contacts: ContactSet,
     raw: Vec<Contact>,
-    /// `raw` and the crease faces of the scope's ends ([`crate::crease`]): what the frame's
+    /// `raw` and the crease faces of the scope's end segments ([`crate::crease`]): what the frame's
     /// constraints are built from.
     answered: Vec<Contact>,
     crease_faces: u32,
@@ -469,7 +470,7 @@ impl<S: ContactSource> World<S> {
         Ok(&self.report)
     }
 
-    /// The contacts of the frame's start, with the crease faces of the scope's ends, become
+    /// The contacts of the frame's start, with the crease faces of the scope's end segments, become
     /// constraints: the wall nodes under them are touched, the wall settles, and each contact is
     /// linearised about the current positions.
     fn constrain(&mut self, dt: f64) {
@@ -477,7 +478,10 @@ impl<S: ContactSource> World<S> {
         self.answered.extend_from_slice(&self.raw);
         self.crease_faces = 0;
         if self.config.sim.crease_faces {
-            let ends = [0, ((self.rod.len() - 1) * self.config.sim.precision.max(1) as usize) as u32];
+            // The samples of the scope's first and last segments.
+            let x = self.config.sim.precision.max(1);
+            let last = (self.rod.len() - 1) as u32 * x;
+            let ends = [0..=x, last.saturating_sub(x)..=last];
             let (r, margin) = (self.config.rod.radius_mm, self.config.sim.margin_mm as f64);
             self.crease_faces = crate::crease::add_faces(&self.raw, SCOPE, TUBE, ends, &self.wall, r, margin, &mut self.answered) as u32;
         }

@@ -31,6 +31,10 @@ struct Args {
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
     #[arg(long)]
     data: Option<PathBuf>,
+    /// A colon model written by `lumen import` (native, or the text format when it ends in
+    /// `.txt`), in mm; replaces --scene.
+    #[arg(long)]
+    model: Option<PathBuf>,
     /// Inflation of the GCA colon.
     #[arg(long, default_value_t = setup::GCA_INFLATE)]
     inflate: f32,
@@ -64,7 +68,7 @@ struct Args {
     /// continuous wall (the spec's `nearest` off).
     #[arg(long)]
     sections: bool,
-    /// No crease faces beside the contacts of the scope's ends (see `lumen_sim::crease`).
+    /// No crease faces beside the contacts of the scope's end segments (see `lumen_sim::crease`).
     #[arg(long)]
     no_crease_faces: bool,
     #[arg(long)]
@@ -137,16 +141,33 @@ fn main() {
     if let Some(v) = a.wall_stiffness {
         wall.stiffness_kpa_per_mm = v
     }
-    let scene = a.scene.name();
+    let scene = match &a.model {
+        Some(p) => format!("model {}", p.display()),
+        None => a.scene.name().to_string(),
+    };
     let t0 = Instant::now();
-    let colon = match a.scene.generated(a.seed) {
-        Some(p) => lumen_scene::generate(&lumen_scene::ColonParams { length_mm: a.length, ..p }),
-        None => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
+    let colon = match (&a.model, a.scene.generated(a.seed)) {
+        (Some(path), _) => {
+            let parsed = std::fs::read(path).map_err(|e| e.to_string()).and_then(|b| lumen_detect::model::parse_model(&b, lumen_detect::model::is_text_path(path)).map_err(|e| e.to_string()));
+            match parsed {
+                Ok((lumen_detect::Body::Tube(t), _)) => t,
+                Ok(_) => {
+                    eprintln!("{}: holds a rod, not a colon (a tube)", path.display());
+                    std::process::exit(2)
+                }
+                Err(e) => {
+                    eprintln!("{}: {e}", path.display());
+                    std::process::exit(2)
+                }
+            }
+        }
+        (None, Some(p)) => lumen_scene::generate(&lumen_scene::ColonParams { length_mm: a.length, ..p }),
+        (None, None) => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
             eprintln!("{e}");
             std::process::exit(2)
         }),
     };
-    if a.scene == ColonKind::Gca {
+    if a.model.is_none() && a.scene == ColonKind::Gca {
         println!("data: {}", lumen_scene::gca::attribution());
     }
     let bend = setup::sigmoid_bend_mm(&colon);
