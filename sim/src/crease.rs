@@ -38,6 +38,7 @@ use crate::wall::Wall;
 use lumen_detect::V3d;
 use lumen_proto::contact::FLAG_OTHER_WALL;
 use lumen_proto::{Contact, ContactKind};
+use std::ops::RangeInclusive;
 
 fn v3(a: [f32; 3]) -> V3d {
     V3d::new(a[0] as f64, a[1] as f64, a[2] as f64)
@@ -47,23 +48,35 @@ fn f3(v: V3d) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
+/// The rod whose ends get crease faces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ends {
+    /// The rod's body index in the scene.
+    pub body: u16,
+    /// The samples of its end segments (both ends).
+    pub samples: [RangeInclusive<u32>; 2],
+    /// Its radius, mm.
+    pub radius_mm: f64,
+}
+
 /// Appends to `out` the crease faces (see the module's rules) of every interior contact in
-/// `contacts` between rod `rod_body`'s samples in `ends` and tube `tube_body`, whose wall is
-/// `wall`; `radius_mm` is the rod's radius, `margin_mm` the detection margin. Returns how many
-/// it appended.
-pub fn add_faces(contacts: &[Contact], rod_body: u16, tube_body: u16, ends: [std::ops::RangeInclusive<u32>; 2], wall: &Wall, radius_mm: f64, margin_mm: f64, out: &mut Vec<Contact>) -> usize {
+/// `contacts` between the samples of `ends` and tube `tube_body`, whose wall is `wall`, within
+/// the detection margin `margin_mm`. Returns how many it appended.
+pub fn add_faces(contacts: &[Contact], ends: &Ends, tube_body: u16, wall: &Wall, margin_mm: f64, out: &mut Vec<Contact>) -> usize {
     let (rings, spokes) = (wall.rings(), wall.spokes());
+    let radius_mm = ends.radius_mm;
     let reach = radius_mm + margin_mm;
     let start = out.len();
     for c in contacts {
-        if c.kind != ContactKind::Interior as u8 || c.body_a != rod_body || c.body_b != tube_body || !ends.iter().any(|e| e.contains(&c.sample)) {
+        if c.kind != ContactKind::Interior as u8 || c.body_a != ends.body || c.body_b != tube_body || !ends.samples.iter().any(|e| e.contains(&c.sample)) {
             continue;
         }
         if c.index_b as usize + 1 >= rings || c.spoke_b as usize >= spokes {
             continue;
         }
         let n = v3(c.normal);
-        if !(n.norm() > 0.5) {
+        let nn = n.norm();
+        if nn.is_nan() || nn <= 0.5 {
             continue;
         }
         let w = v3(c.point_b);
@@ -120,7 +133,7 @@ pub fn face(wall: &Wall, i: usize, k: usize, p: V3d, w: V3d, n: V3d, reach: f64)
     }
     let mut m = (t[3] - t[0]).cross(&(t[2] - t[1]));
     let len = m.norm();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return None;
     }
     m /= len;
@@ -236,7 +249,8 @@ mod tests {
         let end = contact(636, w, n, r - gap);
         let middle = contact(300, w, n, r - gap);
         let mut out = vec![end, middle];
-        let added = add_faces(&[end, middle], 1, 0, [0..=0, 636..=636], &wall, r, 2.0, &mut out);
+        let ends = Ends { body: 1, samples: [0..=4, 632..=636], radius_mm: r };
+        let added = add_faces(&[end, middle], &ends, 0, &wall, 2.0, &mut out);
         assert!(added >= 3, "the fold's three strips at least: {added}");
         let faces = &out[2..];
         assert!(faces.iter().all(|f| f.sample == 636 && f.flags & FLAG_OTHER_WALL != 0 && f.weights_b == [0.25; 4]));
@@ -252,12 +266,12 @@ mod tests {
         let mut reported = contact(636, w, n, r - gap);
         reported.index_b = 5;
         let mut again = vec![end, reported];
-        add_faces(&[end, reported], 1, 0, [0..=0, 636..=636], &wall, r, 2.0, &mut again);
+        add_faces(&[end, reported], &ends, 0, &wall, 2.0, &mut again);
         assert!(again[2..].iter().all(|f| (f.index_b, f.spoke_b) != (5, 0)));
         // A contact with another body, or a self contact, gets none.
         let mut other = end;
         other.body_b = 2;
         let mut none = Vec::new();
-        assert_eq!(add_faces(&[other], 1, 0, [0..=0, 636..=636], &wall, r, 2.0, &mut none), 0);
+        assert_eq!(add_faces(&[other], &ends, 0, &wall, 2.0, &mut none), 0);
     }
 }

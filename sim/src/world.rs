@@ -481,9 +481,8 @@ impl<S: ContactSource> World<S> {
             // The samples of the scope's first and last segments.
             let x = self.config.sim.precision.max(1);
             let last = (self.rod.len() - 1) as u32 * x;
-            let ends = [0..=x, last.saturating_sub(x)..=last];
-            let (r, margin) = (self.config.rod.radius_mm, self.config.sim.margin_mm as f64);
-            self.crease_faces = crate::crease::add_faces(&self.raw, SCOPE, TUBE, ends, &self.wall, r, margin, &mut self.answered) as u32;
+            let ends = crate::crease::Ends { body: SCOPE, samples: [0..=x, last.saturating_sub(x)..=last], radius_mm: self.config.rod.radius_mm };
+            self.crease_faces = crate::crease::add_faces(&self.raw, &ends, TUBE, &self.wall, self.config.sim.margin_mm as f64, &mut self.answered) as u32;
         }
         self.wall.begin_frame();
         self.contacts.touch(&self.answered, SCOPE, TUBE, &self.rod, &mut self.wall);

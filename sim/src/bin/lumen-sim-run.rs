@@ -186,6 +186,7 @@ fn main() {
     }
     let mut phases: Vec<Phase> = Vec::new();
     let (mut pen, mut worst_frame, mut esc_frames, mut esc_max, mut contacts_max) = (0.0f32, 0u64, 0u64, 0u32, 0u32);
+    let mut creases = (0u32, 0u64);
     let (mut self_pen, mut max_force, mut max_wall, mut min_len, mut max_nodes) = (0.0f32, 0.0f64, 0.0f32, 0.0f64, 0u32);
     let (mut limited_frames, mut body_flagged, mut physics, mut detect) = (0u64, 0u32, 0.0f64, 0.0f64);
     let t = Instant::now();
@@ -227,6 +228,7 @@ fn main() {
         esc_frames += (r.escaped > 0) as u64;
         esc_max = esc_max.max(r.escaped);
         contacts_max = contacts_max.max(r.contacts);
+        creases = (creases.0.max(r.crease_faces), creases.1 + r.crease_faces as u64);
         self_pen = self_pen.max(r.max_self_penetration_mm);
         max_force = max_force.max(r.hand_force_n);
         max_wall = max_wall.max(r.max_wall_mm);
@@ -265,7 +267,7 @@ fn main() {
     let wall_s = t.elapsed().as_secs_f64();
     let n = frames.max(1) as f64;
     println!("{frames} frames: {:.0} frames/s ({:.1} us/frame: physics {:.1} us, detection {:.1} us)", frames as f64 / wall_s, wall_s / n * 1e6, physics / n * 1e6, detect / n * 1e6);
-    println!("max penetration {pen:.3} mm (frame {worst_frame}); frames with escaped samples {esc_frames} (at most {esc_max} in a frame); contacts at most {contacts_max}; self penetration at most {self_pen:.3} mm; no NaN");
+    println!("max penetration {pen:.3} mm (frame {worst_frame}); frames with escaped samples {esc_frames} (at most {esc_max} in a frame); contacts at most {contacts_max}; crease faces at most {}, {:.1} a frame; self penetration at most {self_pen:.3} mm; no NaN", creases.0, creases.1 as f64 / frames.max(1) as f64);
     println!("hand force up to {max_force:.1} N; wall displaced up to {max_wall:.2} mm, at most {max_nodes} wall nodes active; scope length error down to {min_len:+.2e}");
     println!("frames where the speed limit engaged {limited_frames}; samples behind the anus flagged outside by the detector (not escapes) at most {body_flagged} per frame");
     for p in phases {
