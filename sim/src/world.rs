@@ -44,6 +44,8 @@
 //! submitting it and copying the reply's contacts.
 
 use crate::config::SimConfig;
+#[cfg(doc)]
+use crate::config::SimParams;
 use crate::contact::ContactSet;
 use crate::operator::{Drive, Operator};
 use crate::rod::Rod;
