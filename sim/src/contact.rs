@@ -47,6 +47,7 @@
 //! explicitly).
 
 use crate::rod::Rod;
+use crate::v3;
 use crate::wall::Wall;
 use lumen_detect::V3d;
 use lumen_proto::{Contact, ContactKind};
@@ -104,10 +105,6 @@ fn tips_of(c: &Contact, spokes: usize) -> [u32; 4] {
     let (i, k) = (c.index_b as usize, c.spoke_b as usize);
     let k1 = (k + 1) % spokes;
     [(i * spokes + k) as u32, (i * spokes + k1) as u32, ((i + 1) * spokes + k) as u32, ((i + 1) * spokes + k1) as u32]
-}
-
-fn v3(a: [f32; 3]) -> V3d {
-    V3d::new(a[0] as f64, a[1] as f64, a[2] as f64)
 }
 
 /// Whether a contact is one this simulation answers: the scope (`rod_body`) against the colon

@@ -34,15 +34,12 @@
 //! tip met a fold the same way. Applied to every sample, the GCA run's scope left the colon
 //! (`docs/decisions/sim.md`).
 
+use crate::v3;
 use crate::wall::Wall;
 use lumen_detect::V3d;
 use lumen_proto::contact::FLAG_OTHER_WALL;
 use lumen_proto::{Contact, ContactKind};
 use std::ops::RangeInclusive;
-
-fn v3(a: [f32; 3]) -> V3d {
-    V3d::new(a[0] as f64, a[1] as f64, a[2] as f64)
-}
 
 fn f3(v: V3d) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]

@@ -14,6 +14,8 @@
 
 use crate::config::SimParams;
 use crate::rod::RodParams;
+use lumen_detect::model::{is_text_path, parse_model, ModelError};
+use lumen_detect::Body;
 use lumen_detect::Tube;
 use lumen_detect::V3d;
 use lumen_import::probe::Lumen;
@@ -149,6 +151,30 @@ pub fn scene_spec(tube: &Tube, rod: &RodParams, sim: &SimParams) -> SceneSpec {
     spec.nearest = sim.nearest;
     spec.refine = sim.refine;
     spec
+}
+
+/// Why a model file gave no colon.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelFileError {
+    /// The file could not be read.
+    #[error(transparent)]
+    Read(std::io::Error),
+    /// It is no model (the parser's reason).
+    #[error(transparent)]
+    Parse(ModelError),
+    /// It holds a rod.
+    #[error("holds a rod, not a colon (a tube)")]
+    NotATube,
+}
+
+/// The colon in a model file written by `lumen import` (native, or the text format when its
+/// name ends in `.txt`).
+pub fn model_colon(path: &Path) -> Result<Tube, ModelFileError> {
+    let bytes = std::fs::read(path).map_err(ModelFileError::Read)?;
+    match parse_model(&bytes, is_text_path(path)).map_err(ModelFileError::Parse)? {
+        (Body::Tube(t), _) => Ok(t),
+        (Body::Rod(_), _) => Err(ModelFileError::NotATube),
+    }
 }
 
 /// The colon of `kind`: the generated one of `seed` (1.5 m) or one of its hard variants, or the

@@ -286,8 +286,7 @@ impl Wall {
     pub fn tip(&self, tip: u32) -> V3d {
         let p = self.points[tip as usize / self.spokes];
         let s = self.rest[tip as usize];
-        let v = |a: [f32; 3]| V3d::new(a[0] as f64, a[1] as f64, a[2] as f64);
-        v(p) + v(s) + self.tip_dir(tip) * self.tip_displacement(tip)
+        crate::v3(p) + crate::v3(s) + self.tip_dir(tip) * self.tip_displacement(tip)
     }
 
     /// Nearest node column of spoke `k` and the spoke's offset from it, in columns.

@@ -63,12 +63,10 @@ impl RunArgs {
     /// The colon: the model file when one is given (the error names it), else the scene.
     pub fn colon(&self, seed: u64) -> CliResult<lumen_detect::Tube> {
         if let Some(path) = &self.model {
-            let bytes = std::fs::read(path).map_err(|source| CliError::FlagPath { flag: "--model", path: path.clone(), source })?;
-            return match lumen_detect::model::parse_model(&bytes, lumen_detect::model::is_text_path(path)) {
-                Ok((lumen_detect::Body::Tube(t), _)) => Ok(t),
-                Ok((lumen_detect::Body::Rod(_), _)) => Err(CliError::Model { path: path.clone(), message: "holds a rod, not a colon (a tube)".into() }),
-                Err(e) => Err(CliError::Model { path: path.clone(), message: e.to_string() }),
-            };
+            return setup::model_colon(path).map_err(|e| match e {
+                setup::ModelFileError::Read(source) => CliError::FlagPath { flag: "--model", path: path.clone(), source },
+                e => CliError::Model { path: path.clone(), message: e.to_string() },
+            });
         }
         let colon = setup::colon(self.scene, seed, self.data.as_deref()).map_err(|source| CliError::Colon { scene: self.scene.name(), source })?;
         if self.scene == ColonKind::Gca {

@@ -147,20 +147,10 @@ fn main() {
     };
     let t0 = Instant::now();
     let colon = match (&a.model, a.scene.generated(a.seed)) {
-        (Some(path), _) => {
-            let parsed = std::fs::read(path).map_err(|e| e.to_string()).and_then(|b| lumen_detect::model::parse_model(&b, lumen_detect::model::is_text_path(path)).map_err(|e| e.to_string()));
-            match parsed {
-                Ok((lumen_detect::Body::Tube(t), _)) => t,
-                Ok(_) => {
-                    eprintln!("{}: holds a rod, not a colon (a tube)", path.display());
-                    std::process::exit(2)
-                }
-                Err(e) => {
-                    eprintln!("{}: {e}", path.display());
-                    std::process::exit(2)
-                }
-            }
-        }
+        (Some(path), _) => setup::model_colon(path).unwrap_or_else(|e| {
+            eprintln!("{}: {e}", path.display());
+            std::process::exit(2)
+        }),
         (None, Some(p)) => lumen_scene::generate(&lumen_scene::ColonParams { length_mm: a.length, ..p }),
         (None, None) => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
             eprintln!("{e}");
