@@ -56,14 +56,14 @@ pub mod wall;
 pub mod world;
 
 pub use config::{SimConfig, SimParams};
-
-/// A point or vector of the detector's wire (`f32`) in the simulation's `f64`.
-pub(crate) fn v3(a: [f32; 3]) -> V3d {
-    V3d::new(a[0] as f64, a[1] as f64, a[2] as f64)
-}
 pub use lumen_detect::V3d;
 pub use lumen_proto::Contact;
 pub use operator::{Action, Operator, Phase, Script};
 pub use rod::{Rod, RodParams};
 pub use wall::{Wall, WallParams};
 pub use world::{ContactSource, FnSource, FrameReport, InProcess, SimError, SourceError, World};
+
+/// A point or vector of the detector's wire (`f32`) in the simulation's `f64`.
+pub(crate) fn v3(a: [f32; 3]) -> V3d {
+    V3d::new(a[0] as f64, a[1] as f64, a[2] as f64)
+}

@@ -51,14 +51,14 @@ pub use lumen_import::GCA_INFLATE;
 pub fn insertion_pose(tube: &Tube, rod: &RodParams, tip_depth_mm: f64) -> Vec<V3d> {
     let ins = Insertion { length_mm: rod.length_mm as f32, radius_mm: rod.radius_mm as f32, points: rod.points, press_mm: 0.0, residual_mm: 0.0, escapes: false };
     let f = ins.frame(tube, tip_depth_mm as f32);
-    f.scope.points.iter().map(|p| V3d::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect()
+    f.scope.points.iter().copied().map(crate::v3).collect()
 }
 
 /// The insertion axis: the first ring's control point and the unit direction into the colon.
 pub fn insertion_axis(tube: &Tube) -> (V3d, V3d) {
     let lumen = Lumen::new(tube);
     let p = tube.points[0];
-    (V3d::new(p[0] as f64, p[1] as f64, p[2] as f64), lumen.normal(0))
+    (crate::v3(p), lumen.normal(0))
 }
 
 /// Arc length of the midline (mm) at its sharpest bend between 12% and 35% of its length
@@ -69,7 +69,7 @@ pub fn insertion_axis(tube: &Tube) -> (V3d, V3d) {
 /// colon inflated twice is not: see [`valid_bends`].) Falls back to the sharpest bend if no
 /// place qualifies.
 pub fn sigmoid_bend_mm(tube: &Tube) -> f64 {
-    let p: Vec<V3d> = tube.points.iter().map(|p| V3d::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect();
+    let p: Vec<V3d> = tube.points.iter().copied().map(crate::v3).collect();
     let mut arc = vec![0.0; p.len()];
     for i in 1..p.len() {
         arc[i] = arc[i - 1] + (p[i] - p[i - 1]).norm();

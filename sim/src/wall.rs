@@ -278,8 +278,7 @@ impl Wall {
 
     /// Unit rest direction of tip `tip` (zero for a zero spoke).
     pub fn tip_dir(&self, tip: u32) -> V3d {
-        let d = self.dir[tip as usize];
-        V3d::new(d[0] as f64, d[1] as f64, d[2] as f64)
+        crate::v3(self.dir[tip as usize])
     }
 
     /// Where tip `tip` is now: its control point, rest spoke and outward displacement, mm.
