@@ -1,5 +1,5 @@
 //! `--instructions`: the bench counts each method's instructions per frame by running itself
-//! under callgrind (valgrind must be installed: `.ci/run` installs it).
+//! under callgrind (valgrind must be installed: `bash .ci/test` installs it).
 
 use std::process::Command;
 

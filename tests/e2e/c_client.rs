@@ -119,7 +119,7 @@ fn build_csharp_test() -> PathBuf {
         .arg(dir.join("Lumen.cs"))
         .arg(dir.join("tests/LumenTest.cs"))
         .output()
-        .unwrap_or_else(|e| panic!("running mcs ({e}): install Mono's compiler and runtime (apt-get install mono-mcs mono-runtime; .ci/run does)"));
+        .unwrap_or_else(|e| panic!("running mcs ({e}): install Mono's compiler and runtime (apt-get install mono-mcs mono-runtime; `bash .ci/test` does)"));
     assert!(built.status.success(), "mcs failed:\n{}{}", String::from_utf8_lossy(&built.stdout), String::from_utf8_lossy(&built.stderr));
     exe
 }
