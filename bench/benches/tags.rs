@@ -1,4 +1,4 @@
-//! Criterion benchmark of what ownership costs per zenoh message (issue 16): the tag of a
+//! Criterion benchmark of what ownership costs per zenoh message: the tag of a
 //! colonoscopy-sized frame (40-byte header + 124,230 floats = 485 KiB, which the client computes
 //! and the daemon checks) and of a reply of 160 contacts (the daemon computes, the client
 //! checks): Lumen's tag (BLAKE3 keyed over the header and length, `header-tag`, and the gate's

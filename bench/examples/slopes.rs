@@ -1,6 +1,6 @@
 //! How far the default (section) reading is from `nearest` (the continuous wall), sample by
 //! sample, against how steep the wall is along the tube near the contact: the question behind
-//! issue 19's accurate default (where may a section reading stand in for the wall?).
+//! the accurate default (where may a section reading stand in for the wall?).
 //!
 //! ```sh
 //! cargo run --release -p lumen-bench --example slopes -- gca 32 4 40

@@ -1,5 +1,5 @@
 //! `lumen bench detect`: speed against error for Lumen's collision methods, measured side by
-//! side in one run, with a picture (issue 3).
+//! side in one run, with a picture.
 //!
 //! Three methods on the same frames:
 //! - `thesis`: the published method ([`lumen_detect::Method::Thesis`]);

@@ -1,4 +1,4 @@
-//! Accuracy against the dense reference ([`lumen_oracle::Reference`]), per issue 3.
+//! Accuracy against the dense reference ([`lumen_oracle::Reference`]).
 //!
 //! A [`Truth`] is one frame's reference: the deformed colon finely tessellated, and the
 //! endoscope sampled densely ([`DENSE_PER_SEGMENT`] points per segment, [`lumen_oracle::dense_rod`])

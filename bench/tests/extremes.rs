@@ -1,4 +1,4 @@
-//! Extreme but finite inputs (issue 16: "no non-finite output, ever"): whatever finite values a
+//! Extreme but finite inputs ("no non-finite output, ever"): whatever finite values a
 //! frame holds, every contact the detector returns is finite, or the frame is refused with an
 //! error naming the body and index (values beyond `MAX_COORDINATE`, or a contact that came out
 //! non-finite), and the detector goes on with the next good frame.

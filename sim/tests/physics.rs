@@ -127,7 +127,7 @@ fn the_scripted_hard_push_on_the_generated_colon_stays_inside_and_is_determinist
             creased += (r.crease_faces > 0) as u32;
         }
         eprintln!("{frames} frames: max penetration {:.3} mm (frame {}), hand force up to {force:.1} N, crease faces in {creased} frames", worst.0, worst.1);
-        // Issue 19's limit for the colonoscopy (0.136 mm measured; 0.256 mm without the
+        // The accuracy limit for the colonoscopy (0.136 mm measured; 0.256 mm without the
         // crease faces of the scope's end segments).
         assert!(worst.0 <= 0.5, "max penetration {:.3} mm (frame {})", worst.0, worst.1);
         assert!(creased > 0, "no crease face was ever added");
@@ -209,7 +209,7 @@ fn the_scripted_colonoscopy_in_the_real_colon_never_escapes() {
     // ring planes once cost tens of millimetres, the sections' readings alone 3.4 mm.
     let (worst, force) = common::short_run(&colon, "the real colon");
     assert!(force > 30.0, "the hard push pushed hard: {force:.1} N");
-    // Issue 19's limit: 0.207 mm measured, 0.607 mm without the crease faces of the scope's
+    // The accuracy limit: 0.207 mm measured, 0.607 mm without the crease faces of the scope's
     // end segments (its tip slid along one face of a fold into the next within a frame).
     assert!(worst <= 0.5, "max penetration {worst:.3} mm");
 }

@@ -1,4 +1,4 @@
-//! Mutual TLS and the daemon's access policy (issue 16), against the real `lumen serve`: a
+//! Mutual TLS and the daemon's access policy, against the real `lumen serve`: a
 //! client without a certificate, or with one from another CA, cannot open, observe or query;
 //! a certified client does exactly what its `[[zenoh.access]]` grant allows; an impostor
 //! queryable and forged puts by a certified client never reach anyone.

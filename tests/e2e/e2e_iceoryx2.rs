@@ -292,7 +292,7 @@ fn a_killed_client_is_noticed_within_a_second_and_others_go_on() {
     assert!(eventually(Duration::from_secs(3), || status.status().map(|s| s.sessions.is_empty()).unwrap_or(false)));
 }
 
-/// The race behind issue 4: a client killed within its session's first tick (100 ms) had
+/// A race, since fixed: a client killed within its session's first tick (100 ms) had
 /// never been seen "present", so its session took it for one not yet attached and waited out
 /// the 5 s connect grace. Here the kill follows the first reply at once, every time.
 #[test]
@@ -399,7 +399,7 @@ fn a_closed_sessions_slot_is_free_when_the_close_is_answered() {
 
 #[test]
 fn a_strangers_publisher_and_peer_died_events_change_nothing() {
-    // Issue 16: over iceoryx2 a process could take a session's one frame-publisher slot, and
+    // Before: over iceoryx2 a process could take a session's one frame-publisher slot, and
     // its "a peer died" event ended the session. The frame channel now admits spare publishers,
     // the daemon answers only the publisher of the node that opened the session (others are
     // counted as forged), and a peer-died event makes it look at its client, not end it.

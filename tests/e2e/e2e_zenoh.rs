@@ -528,7 +528,7 @@ fn a_closed_sessions_slot_is_free_when_the_close_is_answered() {
 
 #[test]
 fn a_strangers_close_frames_and_replies_all_fail() {
-    // The attacks of issue 16 by a second zenoh client that knows the session's id and its keys
+    // The security model's attacks (service/README.md), by a second zenoh client that knows the session's id and its keys
     // (ids are in every frame header) but not the secret of its opened reply.
     let d = daemon("zstranger");
     let scene = TestScene::new(30, 8, 16);
@@ -641,7 +641,7 @@ fn a_strangers_close_frames_and_replies_all_fail() {
 
 #[test]
 fn a_strangers_token_does_not_keep_a_dead_clients_session() {
-    // Issue 16: a token held on a dead client's liveliness key kept its session alive. The key
+    // Before: a token held on a dead client's liveliness key kept its session alive. The key
     // is now named by the session's secret, so a stranger who knows all that is public (the id,
     // describe, status) can hold tokens only on keys near it, and the daemon counts only a
     // token on exactly the owner's key.
@@ -666,7 +666,7 @@ fn a_strangers_token_does_not_keep_a_dead_clients_session() {
 
 #[test]
 fn an_idle_connection_flood_leaves_room_for_clients() {
-    // Issue 16: 101 TCP connections that never handshake filled zenoh's pending-accept slots
+    // Before: 101 TCP connections that never handshake filled zenoh's pending-accept slots
     // (100 by default) and every new client was closed for about 10 s. The daemon now allows
     // `[zenoh] accept_pending` (1024) of them for `accept_timeout_ms` (2 s) each.
     let flood = |port: u16, n: usize| -> Vec<std::net::TcpStream> { (0..n).map(|_| std::net::TcpStream::connect(("127.0.0.1", port)).expect("a flood connection")).collect() };
@@ -697,7 +697,7 @@ fn an_idle_connection_flood_leaves_room_for_clients() {
 
 #[test]
 fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
-    // Issue 16: a lab runs a zenoh router and a daemon per machine. Every daemon answered an
+    // A lab runs a zenoh router and a daemon per machine. Every daemon answered an
     // open on `lumen/control`, so one open made a session on each. Now a client asks every
     // daemon's load (hello) and opens on the least loaded by name, or on the one it names.
     let router_endpoint = format!("tcp/127.0.0.1:{}", free_port());
@@ -771,7 +771,7 @@ fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
 
 #[test]
 fn status_shows_an_unidentified_zenoh_client_only_how_many_sessions_there_are() {
-    // Issue 16: status listed every session's id, client and figures to anyone on the network.
+    // Before: status listed every session's id, client and figures to anyone on the network.
     // By default ([zenoh] status = "counts") a zenoh client no certificate grant identifies
     // learns how many sessions there are; iceoryx2 (this machine, the daemon's account) and
     // `--zenoh-status sessions` list them.
