@@ -12,9 +12,53 @@
 //!   [`kill9_and_time_freeing`]: how soon the daemon frees a killed client's session.
 //! - [`closed_sessions_reopen`]: a session ended under its client, on either transport.
 //! - [`browser`]: a CDP driver for headless Chromium (pages, `eval`, screenshots, init scripts).
+//! - [`snippet`]: a code block of a guide page, found by its `<!-- tested: NAME -->` marker.
+//! - `guide` (doctests only): the root README and the guide's pages (`docs/guide/`), whose Rust
+//!   snippets rustdoc compiles, and runs unless marked `no_run` (`cargo test -p lumen-e2e --doc`).
 
 pub mod browser;
 pub mod pki;
+
+/// The root README and every page of the guide as doc comments, so that rustdoc compiles each
+/// of their Rust code blocks (and runs those not marked `no_run`) as a doctest of this crate.
+#[cfg(doctest)]
+pub mod guide {
+    #[doc = include_str!("../../README.md")]
+    pub mod readme {}
+    #[doc = include_str!("../../docs/guide/README.md")]
+    pub mod index {}
+    #[doc = include_str!("../../docs/guide/getting-started.md")]
+    pub mod getting_started {}
+    #[doc = include_str!("../../docs/guide/tube-model.md")]
+    pub mod tube_model {}
+    #[doc = include_str!("../../docs/guide/your-colon.md")]
+    pub mod your_colon {}
+    #[doc = include_str!("../../docs/guide/integrating.md")]
+    pub mod integrating {}
+    #[doc = include_str!("../../docs/guide/protocol.md")]
+    pub mod protocol {}
+    #[doc = include_str!("../../docs/guide/lab.md")]
+    pub mod lab {}
+    #[doc = include_str!("../../docs/guide/performance.md")]
+    pub mod performance {}
+}
+
+/// A code block of a markdown file: the fenced block right after the line
+/// `<!-- tested: NAME -->`, without its fences, and the file's line number of its first line.
+/// Panics, naming the file, when the marker is missing or there twice, or no fenced block
+/// follows it: the guide's tests then fail instead of testing nothing.
+pub fn snippet(file: &Path, name: &str) -> (String, usize) {
+    let text = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("reading {}: {e}", file.display()));
+    let marker = format!("<!-- tested: {name} -->");
+    let lines: Vec<&str> = text.lines().collect();
+    let at: Vec<usize> = lines.iter().enumerate().filter(|(_, l)| l.trim() == marker).map(|(i, _)| i).collect();
+    assert_eq!(at.len(), 1, "{}: the marker {marker} should be there exactly once (found {})", file.display(), at.len());
+    let fence = at[0] + 1;
+    assert!(lines.get(fence).is_some_and(|l| l.starts_with("```")), "{}:{}: a fenced code block should follow {marker}", file.display(), fence + 1);
+    let body: Vec<&str> = lines[fence + 1..].iter().take_while(|l| !l.starts_with("```")).copied().collect();
+    assert!(fence + 1 + body.len() < lines.len(), "{}:{}: the code block after {marker} is never closed", file.display(), fence + 1);
+    (body.join("\n") + "\n", fence + 2)
+}
 
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use lumen_proto::{Contact, SceneSpec};
