@@ -6,13 +6,15 @@ use std::time::Duration;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// Nobody answers on the control channel.
-    #[error("no Lumen daemon answers on {transport} ({detail}); start one with `lumen serve` (same iceoryx2 prefix / zenoh endpoint)")]
+    #[error(
+        "no Lumen daemon answered on {transport} ({detail}): start one with `lumen serve` (the same iceoryx2 prefix / zenoh endpoint); if one runs, it may be too busy to answer in time: try again"
+    )]
     NoDaemon { transport: Transport, detail: String },
     /// The daemon answered with an error (invalid spec, limits, unknown session...).
     #[error("the daemon refused: {} ({:?})", .0.message, .0.code)]
     Refused(ControlError),
     /// No reply within the timeout; the session still works.
-    #[error("no contacts within {0:?}; the daemon may be busy: wait again or submit the next frame")]
+    #[error("{}", timeout_message(*.0))]
     Timeout(Duration),
     /// The daemon went away, or (zenoh) it no longer has this session, as after a dropped
     /// link. Frames are dropped; the session reopens by itself on the next `frame()` /
@@ -58,5 +60,25 @@ impl Error {
 
     pub(crate) fn zenoh(what: &str, e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> Self {
         Error::Transport(TransportError::zenoh(what, e))
+    }
+}
+
+/// What [`Error::Timeout`] says: a wait of zero is a look that found nothing yet.
+fn timeout_message(waited: Duration) -> String {
+    if waited.is_zero() {
+        "no contacts yet (the call looked without waiting): look again or wait with a timeout".into()
+    } else {
+        format!("no contacts within {waited:?}; the daemon may be busy: wait again or submit the next frame")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_timeout_of_zero_says_it_did_not_wait() {
+        assert_eq!(Error::Timeout(Duration::ZERO).to_string(), "no contacts yet (the call looked without waiting): look again or wait with a timeout");
+        assert!(Error::Timeout(Duration::from_millis(5)).to_string().starts_with("no contacts within 5ms;"));
     }
 }

@@ -52,7 +52,9 @@ impl ZenohClient {
     /// Connects with a full zenoh configuration (TLS, authentication...); `label` names the
     /// daemon in error messages.
     pub fn with_config(config: zenoh::Config, label: &str) -> Result<Self, Error> {
-        let session = zenoh::open(config).wait().map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {e}") })?;
+        let session = zenoh::open(config)
+            .wait()
+            .map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {}", lumen_transport::without_source_paths(&e.to_string())) })?;
         Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() }, daemon: None })
     }
 

@@ -15,7 +15,7 @@ pub enum SpecError {
     PointCount { body: String, count: usize, min: usize, max: usize },
     #[error("body {body:?}: {count} radial vectors per ring; between {min} and {max} are allowed")]
     SpokeCount { body: String, count: usize, min: usize, max: usize },
-    #[error("body {body:?}: rod radius #{index} is {value}; radii must be finite and > 0")]
+    #[error("body {body:?}: rod radius #{index} is {value}; radii must be finite, > 0 and at most {max:e}", max = crate::limits::MAX_COORDINATE)]
     BadRadius { body: String, index: usize, value: f32 },
     #[error("body {body:?}: {got} radii given for {points} control points; give 1 or {points}")]
     RadiusCount { body: String, got: usize, points: usize },
@@ -33,7 +33,7 @@ pub enum SpecError {
     Refine(u32),
     #[error("alpha = {0}; the Catmull-Rom parameter must lie in [0, 1]")]
     Alpha(f32),
-    #[error("margin = {0}; the contact margin must be finite and >= 0")]
+    #[error("margin = {0}; the contact margin must be finite, >= 0 and at most {max:e}", max = crate::limits::MAX_COORDINATE)]
     Margin(f32),
     #[error("the state would hold {got} floats; at most {max} are allowed")]
     StateTooLarge { got: usize, max: usize },

@@ -31,4 +31,5 @@ pub const MAX_STATE_FLOATS: usize = 16 * 1024 * 1024;
 /// micrometres, a thousand kilometres in millimetres). The pipeline forms products of up to
 /// four coordinates in `f32` (largest finite value about 3.4e38), so values beyond this could
 /// overflow to infinity; frames holding one are refused with [`crate::wire::Status::OutOfRange`].
+/// A spec's rod radii and `margin` are bounded by it too.
 pub const MAX_COORDINATE: f32 = 1e9;

@@ -160,7 +160,7 @@ impl BodySpec {
                 if radius.len() != 1 && radius.len() != *points {
                     return Err(SpecError::RadiusCount { body: self.name.clone(), got: radius.len(), points: *points });
                 }
-                if let Some((index, &value)) = radius.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0)) {
+                if let Some((index, &value)) = radius.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0 && **r <= MAX_COORDINATE)) {
                     return Err(SpecError::BadRadius { body: self.name.clone(), index, value });
                 }
             }

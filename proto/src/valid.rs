@@ -36,7 +36,7 @@ impl SceneSpec {
         if !(0.0..=1.0).contains(&self.alpha) {
             return Err(SpecError::Alpha(self.alpha));
         }
-        if !(self.margin.is_finite() && self.margin >= 0.0) {
+        if !(self.margin.is_finite() && (0.0..=MAX_COORDINATE).contains(&self.margin)) {
             return Err(SpecError::Margin(self.margin));
         }
         for (i, b) in self.bodies.iter().enumerate() {

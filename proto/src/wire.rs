@@ -64,7 +64,7 @@ pub struct FrameHeader {
 pub enum Status {
     /// Contacts computed; `count` of them follow.
     Ok = 0,
-    /// Not a frame: shorter than a header, or the magic is wrong.
+    /// Not a frame: the magic is wrong, or reserved header flags are set.
     Malformed = 1,
     /// The header's version is not [`PROTOCOL_VERSION`].
     BadVersion = 2,
@@ -197,6 +197,8 @@ pub enum FrameError {
     Magic { got: u32 },
     /// Wrong protocol version.
     Version { got: u16 },
+    /// Reserved header flags set (version 1 defines none).
+    Flags { got: u16 },
     /// Another session's frame.
     Session { expected: u64, got: u64 },
     /// Header or payload float count differs from the spec's state size.
@@ -213,6 +215,7 @@ impl fmt::Display for FrameError {
             FrameError::TooShort { got } => write!(f, "frame of {got} bytes is shorter than its {FRAME_HEADER_BYTES}-byte header"),
             FrameError::Magic { got } => write!(f, "frame magic is {got:#010x}; expected {FRAME_MAGIC:#010x} (\"LMNF\")"),
             FrameError::Version { got } => write!(f, "frame version {got}; this daemon speaks version {PROTOCOL_VERSION}"),
+            FrameError::Flags { got } => write!(f, "frame flags are {got:#06x}; they are reserved in version {PROTOCOL_VERSION}: send 0"),
             FrameError::Session { expected, got } => write!(f, "frame names session {got}; this is session {expected}"),
             FrameError::Floats { expected, header, payload } => {
                 write!(f, "frame holds {payload} floats (header says {header}); the spec's state needs exactly {expected}")
@@ -229,7 +232,7 @@ impl FrameError {
     /// The reply status for this error.
     pub fn status(&self) -> Status {
         match self {
-            FrameError::TooShort { .. } | FrameError::Magic { .. } => Status::Malformed,
+            FrameError::TooShort { .. } | FrameError::Magic { .. } | FrameError::Flags { .. } => Status::Malformed,
             FrameError::Version { .. } => Status::BadVersion,
             FrameError::Session { .. } => Status::BadSession,
             FrameError::Floats { .. } | FrameError::Ragged { .. } => Status::BadLength,
@@ -282,6 +285,9 @@ impl FrameHeader {
         }
         if self.version != PROTOCOL_VERSION {
             return Err(FrameError::Version { got: self.version });
+        }
+        if self.flags != 0 {
+            return Err(FrameError::Flags { got: self.flags });
         }
         if self.session != session {
             return Err(FrameError::Session { expected: session, got: self.session });
@@ -582,6 +588,9 @@ mod tests {
         assert_eq!(bodies.check(5, &l, 30).unwrap_err().status(), Status::BadCounts);
         let version = FrameHeader { version: 9, ..good };
         assert_eq!(version.check(5, &l, 30).unwrap_err().status(), Status::BadVersion);
+        let flags = FrameHeader { flags: 1, ..good };
+        assert_eq!(flags.check(5, &l, 30), Err(FrameError::Flags { got: 1 }));
+        assert_eq!(FrameError::Flags { got: 1 }.status(), Status::Malformed);
         let mut state = Vec::with_capacity(30);
         let mut msg = Vec::new();
         encode_frame(&good, &(0..30).map(|i| i as f32).collect::<Vec<_>>(), &mut msg);

@@ -44,7 +44,18 @@ pub fn decode(bytes: &[u8]) -> Result<ControlRequest, ControlReply> {
     if bytes.len() > MAX_CONTROL_BYTES {
         return Err(error(ErrorCode::BadRequest, format!("control request of {} bytes; at most {MAX_CONTROL_BYTES} are read", bytes.len())));
     }
-    serde_json::from_slice(bytes).map_err(|e| error(ErrorCode::BadRequest, format!("not a control request: {e}")))
+    let mut value: serde_json::Value = serde_json::from_slice(bytes).map_err(|e| error(ErrorCode::BadRequest, format!("not JSON: {e}")))?;
+    // An open's spec is read on its own, so a spec that does not parse is answered with code
+    // `spec` naming its field, body or pair (the request around it stays a `bad_request`).
+    let spec = match value.get("op").and_then(|op| op.as_str()) {
+        Some("open") => value.get_mut("spec").map(|slot| std::mem::replace(slot, serde_json::json!({"bodies": [], "pairs": []}))),
+        _ => None,
+    };
+    let mut request: ControlRequest = serde_json::from_value(value).map_err(|e| error(ErrorCode::BadRequest, format!("not a control request: {e}")))?;
+    if let (ControlRequest::Open { spec: slot, .. }, Some(spec)) = (&mut request, spec) {
+        *slot = crate::spec_json::parse(spec).map_err(|e| error(ErrorCode::Spec, format!("invalid scene spec: {e}")))?;
+    }
+    Ok(request)
 }
 
 /// Handles a request on `transport`; `start` launches an accepted session and says whether it
@@ -313,5 +324,28 @@ mod tests {
             let r = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Close { session: info.session, proof: secret.close_proof(info.session) }, |_| Ok(()));
             assert_eq!(r, ControlReply::Closed { session: info.session });
         });
+    }
+
+    /// The code a raw request is answered with, or "ok" for one that decodes.
+    fn code_of(json: &str) -> String {
+        match decode(json.as_bytes()) {
+            Ok(_) => "ok".into(),
+            Err(ControlReply::Error(e)) => format!("{:?}: {}", e.code, e.message),
+            Err(other) => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_spec_that_does_not_parse_is_code_spec_and_the_request_around_it_bad_request() {
+        let spec =
+            r#"{"bodies":[{"name":"colon","shape":{"tube":{"rings":20,"spokes":8}}},{"name":"scope","shape":{"rod":{"points":5,"radius":[1.0]}}}],"pairs":[{"a":"scope","b":"colon","kind":"KIND"}]}"#;
+        let open = |kind: &str, rest: &str| format!(r#"{{"op":"open","version":1{rest},"spec":{}}}"#, spec.replace("KIND", kind));
+        assert_eq!(code_of(&open("interior", "")), "ok", "client may be left out");
+        assert!(code_of(&open("inside", "")).starts_with("Spec: invalid scene spec: pair #0 (\"scope\", \"colon\"): unknown variant `inside`"), "{}", code_of(&open("inside", "")));
+        assert!(code_of(&open("interior", r#","version":"1""#)).starts_with("BadRequest"), "a bad version is the request's, not the spec's");
+        assert!(code_of(&open("interior", r#","colour":1"#)).starts_with("BadRequest: not a control request: unknown field `colour`"));
+        assert!(code_of(r#"{"op":"open","version":1}"#).starts_with("BadRequest: not a control request: missing field `spec`"));
+        assert!(code_of("{").starts_with("BadRequest: not JSON"));
+        assert!(code_of(r#"{"op":"shout"}"#).starts_with("BadRequest: not a control request: unknown variant `shout`"));
     }
 }

@@ -24,6 +24,7 @@ pub mod observe;
 pub mod places;
 pub mod registry;
 pub mod remote;
+pub mod spec_json;
 pub mod stats;
 
 pub use config::ServeConfig;

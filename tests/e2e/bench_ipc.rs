@@ -51,3 +51,23 @@ fn a_short_ipc_benchmark_writes_coherent_figures() {
         std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("lumen_bench_")).collect()).unwrap_or_default();
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }
+
+/// Told where, the bench's daemon listens there and its prefix is the one given; over zenoh it
+/// reads each session's daemon-side time (never the -0.0 of no sample at all).
+#[test]
+fn the_ipc_benchmark_runs_on_the_prefix_and_endpoint_given() {
+    let out = std::env::temp_dir().join(format!("lumen-bench-ipc-z-{}", std::process::id()));
+    let prefix = lumen_e2e::unique_prefix("benchz");
+    let endpoint = format!("tcp/127.0.0.1:{}", lumen_e2e::free_port());
+    let run = Command::new(LUMEN).args(["bench", "ipc", "--only", "zenoh", "--frames", "20", "--prefix", &prefix, "--zenoh-listen", &endpoint, "--out"]).arg(&out).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ipc.json")).unwrap()).unwrap();
+    for r in json["runs"].as_array().unwrap() {
+        assert_eq!(r["transport"], "zenoh");
+        assert!(r["daemon_p50_us"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    let md = std::fs::read_to_string(out.join("ipc.md")).unwrap();
+    assert!(!md.contains("-0.0"), "{md}");
+    let _ = std::fs::remove_dir_all(&out);
+    lumen_transport::shm::remove_prefix(&prefix);
+}

@@ -19,14 +19,14 @@ use std::error::Error as StdError;
 #[derive(Debug, thiserror::Error)]
 pub enum TransportError {
     /// An iceoryx2 call failed (shared memory exhausted, permissions, incompatible service...).
-    #[error("iceoryx2: {what}: {source}")]
+    #[error("iceoryx2: {what}: {}", without_source_paths(&source.to_string()))]
     Iceoryx2 { what: String, source: Box<dyn StdError + Send + Sync> },
     /// A session's iceoryx2 channel admits no more processes or ports (`max_nodes`,
     /// subscribers, listeners: sized by the daemon's `limits.max_observers`).
     #[error("iceoryx2: {what}: the channel is full (it admits the session's client and limits.max_observers observers)")]
     Full { what: String },
     /// A zenoh call failed (endpoint unreachable, bad configuration...).
-    #[error("zenoh: {what}: {source}")]
+    #[error("zenoh: {what}: {}", without_source_paths(&source.to_string()))]
     Zenoh { what: String, source: Box<dyn StdError + Send + Sync> },
 }
 
@@ -39,5 +39,46 @@ impl TransportError {
     /// A zenoh failure at step `what` (zenoh's own errors are already boxed).
     pub fn zenoh(what: impl Into<String>, source: impl Into<Box<dyn StdError + Send + Sync>>) -> Self {
         TransportError::Zenoh { what: what.into(), source: source.into() }
+    }
+}
+
+/// `text` without the source locations a library puts in its messages (zenoh's errors end in
+/// ` at /home/builder/.cargo/registry/.../orchestrator.rs:447.`): they name the machine the
+/// library was built on, which tells a user nothing. What else the text says is kept.
+pub fn without_source_paths(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(at) = rest.find(" at ") {
+        let after = &rest[at + 4..];
+        let word_end = after.find(char::is_whitespace).unwrap_or(after.len());
+        let word = after[..word_end].trim_end_matches(['.', ',', ';', ')']);
+        let is_location = word.rsplit_once(':').is_some_and(|(file, line)| file.ends_with(".rs") && !line.is_empty() && line.bytes().all(|b| b.is_ascii_digit()));
+        if is_location {
+            out.push_str(rest[..at].trim_end());
+            // Keep the punctuation that ended the sentence the location was in.
+            rest = &after[word.len()..];
+        } else {
+            out.push_str(&rest[..at + 4]);
+            rest = after;
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn source_locations_are_cut_and_the_rest_kept() {
+        let zenoh = "Unable to connect to any of [tcp/127.0.0.1:1]!  at /root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/zenoh-1.10.2/src/net/runtime/orchestrator.rs:447.";
+        assert_eq!(without_source_paths(zenoh), "Unable to connect to any of [tcp/127.0.0.1:1]!.");
+        let nested = "open failed at src/a.rs:1. - Caused by: timed out at /x/b.rs:22";
+        assert_eq!(without_source_paths(nested), "open failed. - Caused by: timed out");
+        let plain = "looked at noon at the door: src.rs:x stays";
+        assert_eq!(without_source_paths(plain), plain);
+        let e = TransportError::zenoh("opening a session", zenoh.to_owned());
+        assert!(!e.to_string().contains(".rs:"), "{e}");
     }
 }

@@ -4,12 +4,14 @@ use super::transport::TransportArgs;
 use super::CliResult;
 use clap::Args;
 use lumen_client::StatusReport;
+use lumen_proto::session::ControlReply;
 
 #[derive(Debug, Args)]
 pub struct StatusArgs {
     #[command(flatten)]
     pub transport: TransportArgs,
-    /// Print the raw JSON report (an array of reports where several daemons answer).
+    /// Print the daemon's raw JSON reply, `{"reply":"status",...}` (an array of them where
+    /// several daemons answer).
     #[arg(long)]
     pub json: bool,
 }
@@ -19,7 +21,9 @@ pub fn run(args: StatusArgs) -> CliResult {
     // Over zenoh every daemon on the network answers (through a router), each its own table.
     let reports = client.status_all()?;
     if args.json {
-        match reports.as_slice() {
+        // Each report as the daemon's reply carries it, `"reply":"status"` included.
+        let replies: Vec<ControlReply> = reports.into_iter().map(ControlReply::Status).collect();
+        match replies.as_slice() {
             [one] => println!("{}", serde_json::to_string_pretty(one)?),
             many => println!("{}", serde_json::to_string_pretty(many)?),
         }

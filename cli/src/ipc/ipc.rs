@@ -129,8 +129,10 @@ pub struct IpcBench {
     /// a physics step would; zero: it submits at once.
     pub think: Duration,
     transports: Vec<Transport>,
-    prefix: String,
-    endpoint: String,
+    /// The iceoryx2 `global.prefix` of the daemon it starts.
+    pub prefix: String,
+    /// The zenoh endpoint that daemon listens on and the clients connect to.
+    pub endpoint: String,
 }
 
 /// Round trips and detection times of one measurement.
@@ -224,7 +226,9 @@ impl IpcBench {
     /// Runs every measurement against a fresh daemon.
     pub fn run(&self) -> CliResult<IpcReport> {
         let exe = std::env::current_exe().map_err(CliError::CurrentExe)?;
-        let args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--log", "warn"].iter().map(|s| s.to_string()).collect();
+        // Status lists the sessions to the bench's own zenoh client too (not only counts): it
+        // reads each session's daemon-side time from there.
+        let args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--zenoh-status", "sessions", "--log", "warn"].iter().map(|s| s.to_string()).collect();
         let _daemon = DaemonChild::spawn(&exe, &args)?;
         let (spec, states) = if self.stand_in { scene::stand_in(FRAMES) } else { scene::generated(FRAMES) };
         let layout = StateLayout::of(&spec);
@@ -313,7 +317,8 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
         echo_detect_max_us: echo.detect_ns.iter().copied().max().unwrap_or(0) as f64 / 1e3,
         detect_us: quantile_us(&mut det.detect_ns, 0.5),
         detect_p99_us: quantile_us(&mut det.detect_ns, 0.99),
-        daemon_p50_us: det.daemon_p50_us.iter().sum::<f64>() / det.daemon_p50_us.len().max(1) as f64,
+        // Summed from 0.0: an empty float sum is -0.0, which the table would print as such.
+        daemon_p50_us: det.daemon_p50_us.iter().fold(0.0, |a, b| a + b) / det.daemon_p50_us.len().max(1) as f64,
         frames: det.rtt_ns.len() as u64 + det.lost,
         lost_frames: det.lost,
     }

@@ -26,10 +26,24 @@ pub struct IpcArgs {
     /// next frame, as a physics step would (default 0: it submits at once).
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=100_000))]
     pub think_us: u64,
+    /// The iceoryx2 `global.prefix` of the daemon the bench starts (default: one of its own,
+    /// `lumen_bench_<pid>_`); its files are removed at the end, so give one no other daemon uses.
+    #[arg(long)]
+    pub prefix: Option<String>,
+    /// The zenoh endpoint the bench's daemon listens on and its clients connect to (default: a
+    /// free loopback port, `tcp/127.0.0.1:<port>`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_listen: Option<String>,
 }
 
 pub fn run(args: IpcArgs) -> CliResult {
     let mut bench = IpcBench::new(args.quick, args.only.as_deref())?;
+    if let Some(prefix) = args.prefix {
+        bench.prefix = prefix;
+    }
+    if let Some(endpoint) = args.zenoh_listen {
+        bench.endpoint = endpoint;
+    }
     bench.stand_in = args.stand_in;
     bench.frames = args.frames.map(|n| n as usize);
     bench.think = std::time::Duration::from_micros(args.think_us);

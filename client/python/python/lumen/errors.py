@@ -33,7 +33,7 @@ class LumenError(Exception):
 
 
 class NoDaemonError(LumenError, ConnectionError):
-    """No daemon answers: start one with ``lumen serve`` (same iceoryx2 prefix / zenoh endpoint).
+    """No daemon answered: start one with ``lumen serve`` (same iceoryx2 prefix / zenoh endpoint); one that runs may be too busy to answer in time.
 
     ``transport``: ``"iceoryx2"`` or ``"zenoh"``.
     """

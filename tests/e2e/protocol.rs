@@ -1,0 +1,180 @@
+//! What `proto/README.md` tells a client written from it alone, checked against the real daemon
+//! on both transports with raw requests: codes and messages for bad specs, the size limit, the
+//! reserved header flags, the end of a session seen by an iceoryx2 observer, and `lumen status
+//! --json` as the raw reply.
+
+use iceoryx2::prelude::*;
+use lumen_client::{Client, LocalOptions};
+use lumen_e2e::{eventually, free_port, unique_prefix, Daemon, TestScene};
+use lumen_proto::wire::Status;
+use serde_json::Value;
+use std::path::Path;
+use std::time::Duration;
+use zenoh::Wait;
+
+const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
+const WAIT: Duration = Duration::from_secs(3);
+
+/// A daemon serving both transports, with `extra` flags.
+fn daemon(tag: &str, extra: &[&str]) -> Daemon {
+    Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), extra)
+}
+
+/// One raw JSON request over iceoryx2 (request-response on `lumen/control`, then the event), as
+/// section 1 describes; the reply parsed.
+fn ask_iceoryx2(prefix: &str, json: &str) -> Value {
+    let node = NodeBuilder::new().config(&lumen_transport::shm::config(Some(prefix)).unwrap()).create::<lumen_transport::shm::Svc>().unwrap();
+    let name: ServiceName = "lumen/control".try_into().unwrap();
+    let service = node.service_builder(&name).request_response::<[u8], [u8]>().open().unwrap();
+    let wake = node.service_builder(&name).event().open().unwrap();
+    let client = service.client_builder().initial_max_slice_len(json.len()).create().unwrap();
+    let pending = client.loan_slice_uninit(json.len()).unwrap().write_from_slice(json.as_bytes()).send().unwrap();
+    wake.notifier_builder().create().unwrap().notify_with_custom_event_id(EventId::new(0)).unwrap();
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(reply) = pending.receive().unwrap() {
+            return serde_json::from_slice(reply.payload()).unwrap();
+        }
+        assert!(start.elapsed() < WAIT, "no reply over iceoryx2 to {json}");
+        std::thread::sleep(Duration::from_micros(200));
+    }
+}
+
+/// One raw JSON request over zenoh (`get` on `lumen/control`); the reply parsed.
+fn ask_zenoh(endpoint: &str, json: &str) -> Value {
+    let z = zenoh::open(lumen_transport::net::config("client", &[], &[endpoint.to_owned()]).unwrap()).wait().unwrap();
+    let reply = z.get("lumen/control").payload(json.to_owned()).timeout(WAIT).wait().unwrap().recv().unwrap_or_else(|_| panic!("no reply over zenoh to {json}"));
+    serde_json::from_slice(&reply.result().unwrap().payload().to_bytes()).unwrap()
+}
+
+/// Both transports' replies to `json`.
+fn ask_both(d: &Daemon, json: &str) -> [(&'static str, Value); 2] {
+    [("iceoryx2", ask_iceoryx2(&d.prefix, json)), ("zenoh", ask_zenoh(&d.endpoint(), json))]
+}
+
+/// An open request whose spec is the README's example with `edit` applied to it.
+fn open_with(edit: impl FnOnce(&mut Value)) -> String {
+    let mut spec = serde_json::json!({
+        "bodies": [{"name": "colon", "shape": {"tube": {"rings": 20, "spokes": 8}}},
+                   {"name": "scope", "shape": {"rod": {"points": 10, "radius": [2.0]}}}],
+        "pairs": [{"a": "scope", "b": "colon", "kind": "interior"}],
+        "precision": 4});
+    edit(&mut spec);
+    serde_json::json!({"op": "open", "version": 1, "client": "protocol-test", "spec": spec}).to_string()
+}
+
+#[test]
+fn a_spec_field_of_the_wrong_type_or_value_is_code_spec_naming_it_on_both_transports() {
+    let d = daemon("pspec", &[]);
+    let set = |path: &'static str, to: Value| move |s: &mut Value| *s.pointer_mut(path).unwrap() = to;
+    let cases: Vec<(String, &str)> = vec![
+        (open_with(set("/pairs/0/kind", "inside".into())), "pair #0 (\"scope\", \"colon\"): unknown variant `inside`"),
+        (open_with(|s| s["method"] = "fast".into()), "method: unknown variant `fast`"),
+        (open_with(|s| s["nearest"] = "yes".into()), "nearest: invalid type: string \"yes\""),
+        (open_with(set("/bodies/0/shape/tube/rings", (-1).into())), "body \"colon\": invalid value: integer `-1`"),
+        (open_with(set("/bodies/0/shape/tube/rings", 20.5.into())), "body \"colon\": invalid type: floating point `20.5`"),
+        (open_with(set("/bodies/0/shape/tube/rings", "20".into())), "body \"colon\": invalid type: string \"20\""),
+        (open_with(|s| s["precision"] = 2.5.into()), "precision: invalid type: floating point `2.5`"),
+        (open_with(set("/bodies/1/shape", serde_json::json!({"sphere": {"radius": 1.0}}))), "body \"scope\": unknown variant `sphere`"),
+        // Numbers in range of their type but beyond the spec table's bounds.
+        (open_with(set("/bodies/1/shape/rod/radius", serde_json::json!([1e30]))), "body \"scope\": rod radius #0 is 1000000000000000000000000000000"),
+        (open_with(|s| s["margin"] = 2e9.into()), "margin = 2000000000"),
+        (open_with(|s| s["precision"] = 65.into()), "precision x = 65"),
+        (open_with(|s| s["colour"] = "red".into()), "unknown field \"colour\""),
+    ];
+    for (json, expected) in &cases {
+        for (transport, reply) in ask_both(&d, json) {
+            assert_eq!((reply["reply"].as_str(), reply["code"].as_str()), (Some("error"), Some("spec")), "{transport}: {json} -> {reply}");
+            let message = reply["message"].as_str().unwrap();
+            assert!(message.starts_with(&format!("invalid scene spec: {expected}")), "{transport}: {json} -> {message:?}, expected {expected:?}");
+        }
+    }
+    // The request around the spec: its own errors are `bad_request`; `client` may be left out
+    // and `method: "default"` is the default method's other name.
+    for (transport, reply) in ask_both(&d, &open_with(|_| {}).replace("\"client\"", "\"colour\"")) {
+        assert_eq!(reply["code"], "bad_request", "{transport}: {reply}");
+    }
+    let plain = serde_json::json!({"op": "open", "version": 1, "spec": serde_json::from_str::<Value>(&open_with(|s| s["method"] = "default".into())).unwrap()["spec"]}).to_string();
+    for (transport, reply) in ask_both(&d, &plain) {
+        assert_eq!(reply["reply"], "opened", "{transport}: {reply}");
+        assert_eq!(reply["spec"]["method"], "signed", "{transport}: {reply}");
+    }
+}
+
+#[test]
+fn the_session_size_limit_holds_on_both_transports() {
+    let cfg = std::env::temp_dir().join(format!("{}lumen.toml", unique_prefix("plimit")));
+    std::fs::write(&cfg, "[limits]\nmax_session_mib = 1\n").unwrap();
+    let d = daemon("plimit", &["--config", cfg.to_str().unwrap()]);
+    // 2,000 rings of 64 spokes: 390,000 floats, a 1.5 MiB frame: beyond 1 MiB on both.
+    let big = open_with(|s| s["bodies"][0]["shape"]["tube"] = serde_json::json!({"rings": 2000, "spokes": 64}));
+    for (transport, reply) in ask_both(&d, &big) {
+        assert_eq!(reply["code"], "limit", "{transport}: {reply}");
+        assert!(reply["message"].as_str().unwrap().contains("the daemon allows 1 MiB"), "{transport}: {reply}");
+    }
+    // 20 rings of 8 spokes fit.
+    for (transport, reply) in ask_both(&d, &open_with(|_| {})) {
+        assert_eq!(reply["reply"], "opened", "{transport}: {reply}");
+    }
+}
+
+#[test]
+fn a_frame_with_reserved_flags_is_answered_malformed_and_the_session_goes_on() {
+    let d = daemon("pflags", &[]);
+    let scene = TestScene::new(20, 8, 10);
+    let clients = [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("flags".into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()];
+    for client in clients {
+        let mut s = client.open_session(&scene.spec).unwrap();
+        s.frame().unwrap().copy_from_slice(&scene.state(0));
+        let sent = s.submit_with(|h| h.flags = 1).unwrap();
+        let reply = s.contacts(WAIT).unwrap();
+        assert_eq!(reply.frame(), sent);
+        let (status, message) = reply.result().unwrap_err();
+        assert_eq!(status, Status::Malformed, "{message}");
+        assert!(message.contains("flags") && message.contains("reserved"), "{message}");
+        assert_eq!(reply.contacts().len(), 0);
+        s.frame().unwrap().copy_from_slice(&scene.state(1));
+        s.submit().unwrap();
+        let reply = s.contacts(WAIT).unwrap();
+        assert!(reply.result().is_ok(), "{:?}", reply.result());
+        assert!(!reply.contacts().is_empty(), "the test scene touches the wall");
+    }
+}
+
+#[test]
+fn an_iceoryx2_observer_sees_the_session_end_as_its_contacts_service_losing_its_publisher() {
+    let d = daemon("pend", &[]);
+    let scene = TestScene::new(20, 8, 10);
+    let client = Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("owner".into()) }).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    s.frame().unwrap().copy_from_slice(&scene.state(0));
+    s.submit().unwrap();
+    s.contacts(WAIT).unwrap();
+    // An observer of its own, with iceoryx2 alone, as section 4 says.
+    let node = NodeBuilder::new().config(&lumen_transport::shm::config(Some(&d.prefix)).unwrap()).create::<lumen_transport::shm::Svc>().unwrap();
+    let name: ServiceName = s.info().contacts.as_str().try_into().unwrap();
+    let contacts = node.service_builder(&name).publish_subscribe::<[lumen_proto::Contact]>().user_header::<lumen_proto::wire::ContactsHeader>().open().unwrap();
+    let publishers = || contacts.dynamic_config().number_of_publishers();
+    assert_eq!(publishers(), 1, "the daemon's publisher while the session is open");
+    s.close().unwrap();
+    assert!(
+        eventually(WAIT, || {
+            node.try_cleanup_dead_nodes();
+            publishers() == 0
+        }),
+        "the session ended but its contacts service still has {} publishers",
+        publishers()
+    );
+}
+
+#[test]
+fn status_json_prints_the_daemons_raw_reply() {
+    let d = daemon("pstatus", &[]);
+    let out = std::process::Command::new(LUMEN).args(["status", "--json", "--prefix", &d.prefix]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let raw = ask_iceoryx2(&d.prefix, r#"{"op":"status"}"#);
+    assert_eq!(printed["reply"], "status", "{printed}");
+    let keys = |v: &Value| v.as_object().unwrap().keys().cloned().collect::<Vec<_>>();
+    assert_eq!(keys(&printed), keys(&raw), "lumen status --json and the raw reply have other fields");
+}
