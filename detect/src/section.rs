@@ -80,8 +80,8 @@ pub struct TubeCache {
     ring: Vec<Ring>,
     inner_stamp: Vec<u32>,
     inner: Vec<Inner>,
-    /// Per ring: the frame its spokes were last compared in, and those spokes, kept across
-    /// frames to tell a ring that changed ([`TubeCache::inner_bound`]); and how near its
+    /// Per ring: the frame it was last compared in, and its control point and spokes then, kept
+    /// across frames to tell a ring that changed ([`TubeCache::inner_bound`]); and how near its
     /// control point its wall edges come, at least.
     seen_stamp: Vec<u32>,
     seen_spokes: Vec<[f32; 3]>,
@@ -369,14 +369,15 @@ impl TubeCache {
         bound
     }
 
-    /// Ring `i`'s version: checked once a frame against the spokes last seen (one compare of
-    /// the ring's bytes) and bumped where they changed, so what is derived from a ring is
-    /// computed again only where it changed. The colonoscopy moves a few rings a frame; most
+    /// Ring `i`'s version: checked once a frame against the ring last seen (one compare of
+    /// the ring's bytes: its control point and spokes, since what is derived from a segment
+    /// reads the chord between control points too) and bumped where it changed, so what is
+    /// derived from a ring is computed again only where it changed. The colonoscopy moves a few rings a frame; most
     /// of a frame's rings are as they were.
     #[inline]
     fn version_of(&mut self, t: &TubeView, i: usize) -> u32 {
         if self.seen_stamp[i] != self.stamp {
-            let b = t.spokes;
+            let b = t.spokes + 1;
             if self.seen_spokes.len() != self.near.len() * b {
                 self.seen_spokes.clear();
                 self.seen_spokes.resize(self.near.len() * b, [0.0; 3]);
@@ -384,7 +385,7 @@ impl TubeCache {
                 self.near_from.iter_mut().for_each(|v| *v = 0);
                 self.inner_from.iter_mut().for_each(|f| *f = [0; 2]);
             }
-            let now = t.spokes_of(i);
+            let now = t.ring_of(i);
             let kept = &mut self.seen_spokes[i * b..(i + 1) * b];
             if self.version[i] == 0 || !same_bits(kept, now) {
                 kept.copy_from_slice(now);

@@ -47,6 +47,13 @@ impl<'a> TubeView<'a> {
         &self.data[o..o + self.spokes]
     }
 
+    /// Ring `i` as sent: its control point (world, not local) then its radial vectors.
+    #[inline]
+    pub fn ring_of(&self, i: usize) -> &'a [[f32; 3]] {
+        let o = i * self.stride;
+        &self.data[o..o + self.stride]
+    }
+
     /// The box of ring `i`'s radial vectors (relative to its control point), read in one pass
     /// over the ring's floats.
     pub fn spoke_box(&self, i: usize) -> Aabb {

@@ -94,6 +94,12 @@ impl Walk {
                 reading = Some(read);
             }
         }
+        // Past an end, as read by a walk from last frame's place: planes far from where the
+        // sample is may put it there (a scope moved anywhere, or after a frame of nonsense);
+        // a session without history locates it through the BVH, and so does this one.
+        if from_history && matches!(axial, Axial::BeforeStart | Axial::AfterEnd) {
+            axial = Axial::Lost;
+        }
         let walked = axial != Axial::Lost;
         if walked {
             counters.walked += 1;
