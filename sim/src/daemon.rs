@@ -41,6 +41,8 @@ pub enum DaemonSourceError {
     /// The daemon found more contacts than the session's capacity and sent only `sent`: the
     /// physics would miss constraints, so the run stops.
     Truncated { frame: u64, sent: u32 },
+    /// [`DaemonSource::interrupt`] said to stop (a signal came) while waiting for the daemon.
+    Interrupted(i32),
 }
 
 impl fmt::Display for DaemonSourceError {
@@ -49,6 +51,7 @@ impl fmt::Display for DaemonSourceError {
             DaemonSourceError::Client(e) => write!(f, "{e}"),
             DaemonSourceError::Refused { frame, status, message } => write!(f, "the daemon refused frame {frame}: {status:?}: {message}"),
             DaemonSourceError::Truncated { frame, sent } => write!(f, "the daemon truncated the contacts of frame {frame} at the session's capacity ({sent})"),
+            DaemonSourceError::Interrupted(sig) => write!(f, "interrupted by signal {sig} while waiting for the daemon"),
         }
     }
 }
@@ -75,6 +78,9 @@ pub const DEFAULT_RESUME_WITHIN: Duration = Duration::from_secs(30);
 /// Pause between tries while the daemon is away.
 const RETRY_PAUSE: Duration = Duration::from_millis(20);
 
+/// Longest stretch a wait for a reply goes without asking [`DaemonSource::interrupt`].
+const INTERRUPT_EVERY: Duration = Duration::from_millis(50);
+
 /// Contacts from a daemon session (see the module docs).
 ///
 /// It rides out a daemon restart: while the daemon is away (the client says `Disconnected`, or
@@ -86,8 +92,13 @@ pub struct DaemonSource {
     pub timeout: Duration,
     /// How long to keep retrying while the daemon is away before giving up.
     pub resume_within: Duration,
+    /// Asked every 50 ms while a reply is awaited or the daemon is away: a signal number stops
+    /// the wait with [`DaemonSourceError::Interrupted`] (a command line's SIGINT / SIGTERM).
+    pub interrupt: Option<fn() -> Option<i32>>,
     /// Since when the daemon has been away, if it is.
     lost_since: Option<Instant>,
+    /// The signal [`DaemonSource::interrupt`] gave, once it gave one.
+    interrupted: Option<i32>,
     round_trips_us: Vec<f32>,
     detect_us: f64,
 }
@@ -96,7 +107,7 @@ impl DaemonSource {
     /// A source over `session`, which must have been opened for the world's scene spec
     /// ([`crate::setup::scene_spec`]).
     pub fn new(session: Session) -> Self {
-        Self { session, timeout: DEFAULT_TIMEOUT, resume_within: DEFAULT_RESUME_WITHIN, lost_since: None, round_trips_us: Vec::new(), detect_us: 0.0 }
+        Self { session, timeout: DEFAULT_TIMEOUT, resume_within: DEFAULT_RESUME_WITHIN, interrupt: None, lost_since: None, interrupted: None, round_trips_us: Vec::new(), detect_us: 0.0 }
     }
 
     /// The session.
@@ -115,6 +126,11 @@ impl DaemonSource {
         self.round_trips_us.last().copied().unwrap_or(0.0)
     }
 
+    /// The signal that stopped a wait for the daemon ([`DaemonSource::interrupt`]), if one did.
+    pub fn interrupted(&self) -> Option<i32> {
+        self.interrupted
+    }
+
     /// Detection time the daemon reported for the last frame, us.
     pub fn last_detect_us(&self) -> f64 {
         self.detect_us
@@ -126,7 +142,18 @@ impl DaemonSource {
         let deadline = t0 + self.timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let reply = self.session.contacts(left)?;
+            // In slices, asking between them whether to stop, when someone may ask it to.
+            let slice = if self.interrupt.is_some() { left.min(INTERRUPT_EVERY) } else { left };
+            let reply = match self.session.contacts(slice) {
+                Err(lumen_client::Error::Timeout(_)) if slice < left => {
+                    if let Some(sig) = self.interrupt.and_then(|ask| ask()) {
+                        self.interrupted = Some(sig);
+                        return Err(DaemonSourceError::Interrupted(sig));
+                    }
+                    continue;
+                }
+                reply => reply?,
+            };
             // A reply to an earlier frame (one that timed out before) is not this frame's.
             if reply.frame() < n {
                 continue;
@@ -161,6 +188,10 @@ impl ContactSource for DaemonSource {
         use lumen_client::Error::{Disconnected, Timeout};
         let away = matches!(error.downcast_ref::<DaemonSourceError>(), Some(DaemonSourceError::Client(Disconnected | Timeout(_))));
         if !away {
+            return None;
+        }
+        if let Some(sig) = self.interrupt.and_then(|ask| ask()) {
+            self.interrupted = Some(sig);
             return None;
         }
         let since = *self.lost_since.get_or_insert_with(Instant::now);

@@ -112,3 +112,41 @@ fn lumen_sim_rides_out_a_daemon_restart_over_iceoryx2() {
 fn lumen_sim_rides_out_a_daemon_restart_over_zenoh() {
     lumen_sim_rides_out_a_restart("zsimrestart", true);
 }
+
+/// SIGTERM to `lumen sim` while its daemon is away (killed, not back): it stops waiting within a
+/// second, prints its summary and exits 130, as its docs say.
+fn lumen_sim_takes_sigterm_during_an_outage(tag: &str, zenoh: bool) {
+    let prefix = unique_prefix(tag);
+    let port = zenoh.then(lumen_e2e::free_port);
+    let mut daemon = Daemon::start(LUMEN.as_ref(), &prefix, port, &[]);
+    let mut cmd = Command::new(LUMEN);
+    cmd.args(["sim", "--frames", "100000", "--progress-every", "50", "--prefix", &prefix]);
+    if zenoh {
+        cmd.args(["--zenoh", &daemon.endpoint()]);
+    }
+    let mut sim = lumen_e2e::ChildProcess::spawn(cmd);
+    assert!(sim.line_starting(r#"{"type":"progress""#, std::time::Duration::from_secs(120)).is_some(), "lumen sim did not get going");
+    daemon.process.kill9();
+    // Well into the outage: the sim is retrying.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(sim.child.try_wait().unwrap().is_none(), "lumen sim gave up within 1.5 s of the daemon's death");
+    let sent = std::time::Instant::now();
+    sim.signal(libc::SIGTERM);
+    let status = sim.wait_exit(std::time::Duration::from_secs(10)).expect("lumen sim exits after SIGTERM");
+    let took = sent.elapsed();
+    assert_eq!(status.code(), Some(130), "{status}");
+    assert!(took < std::time::Duration::from_secs(1), "lumen sim took {took:?} to end after SIGTERM during the outage");
+    let summary = sim.line_starting(r#"{"type":"summary""#, std::time::Duration::from_secs(5)).expect("a summary line");
+    assert!(summary.contains("interrupted by signal 15"), "{summary}");
+    lumen_transport::shm::remove_prefix(&prefix);
+}
+
+#[test]
+fn lumen_sim_takes_sigterm_during_an_outage_over_iceoryx2() {
+    lumen_sim_takes_sigterm_during_an_outage("simterm", false);
+}
+
+#[test]
+fn lumen_sim_takes_sigterm_during_an_outage_over_zenoh() {
+    lumen_sim_takes_sigterm_during_an_outage("zsimterm", true);
+}

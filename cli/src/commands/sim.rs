@@ -165,6 +165,9 @@ pub fn run(args: SimArgs) -> CliResult<std::process::ExitCode> {
     }
     let mut source = DaemonSource::new(session);
     source.timeout = Duration::from_secs_f64(args.reply_timeout);
+    // A signal also ends a wait for the daemon (a reply, or a daemon that is away), not only
+    // the loop between frames.
+    source.interrupt = Some(|| wait_signal(Duration::ZERO));
     let mut world = World::new(&colon, config, source)?;
     eprintln!("lumen sim: scope fitted in {} detections; running {} frames over {}", world.fit_iterations(), args.run.frames, args.transport.transport());
     let figures_error = |source| CliError::FlagPath { flag: "--figures", path: args.figures.clone().unwrap_or_default(), source };
@@ -198,7 +201,10 @@ pub fn run(args: SimArgs) -> CliResult<std::process::ExitCode> {
                 FrameRow { frame, nan: true, ..FrameRow::default() }
             }
             Err(e) => {
-                failure = Some(e.into());
+                match world.source().interrupted() {
+                    Some(sig) => interrupted = Some(format!("interrupted by signal {sig} after {} frames", world.frame())),
+                    None => failure = Some(e.into()),
+                }
                 break;
             }
         };
