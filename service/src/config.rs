@@ -6,7 +6,7 @@
 //! prefix = "iox2_"          # file-name prefix in /dev/shm; clients must use the same
 //!
 //! [zenoh]
-//! listen = ["tcp/0.0.0.0:7447"]
+//! listen = ["tls/0.0.0.0:7447"]  # beyond loopback: tls/ with client_ca, or insecure = true
 //! connect = []              # e.g. a router: ["tcp/10.0.0.1:7447"]
 //! mode = "router"           # "router" or "peer"
 //! name = "lab-server"       # this daemon's name (default: host name and pid); clients pick a daemon by it
@@ -24,6 +24,7 @@
 //! status = "counts"        # what status shows a client without a certificate grant: "counts" or "sessions"
 //! accept_pending = 1024     # connections in zenoh's handshake at once (more are closed)
 //! accept_timeout_ms = 2000  # a connection that has not finished its handshake by then is closed
+//! insecure = false          # true: serve endpoints beyond loopback without client certificates
 //!
 //! [limits]
 //! max_sessions = 16
@@ -86,6 +87,9 @@ pub struct ZenohConfig {
     /// Milliseconds a connection may take to finish zenoh's handshake before it is closed and
     /// its slot freed (`transport/unicast/accept_timeout`, 10,000 by default there).
     pub accept_timeout_ms: u64,
+    /// Serve endpoints other machines can reach without client certificates anyway (`lumen
+    /// serve --insecure`). Off, such a configuration is refused: see [`ServeConfig::validate`].
+    pub insecure: bool,
 }
 
 /// What a zenoh client without a certificate grant learns from `status`.
@@ -132,6 +136,7 @@ impl Default for ZenohConfig {
             status: StatusPolicy::Counts,
             accept_pending: ACCEPT_PENDING,
             accept_timeout_ms: ACCEPT_TIMEOUT_MS,
+            insecure: false,
         }
     }
 }
@@ -141,6 +146,27 @@ impl ZenohConfig {
     pub fn enabled(&self) -> bool {
         !self.listen.is_empty() || !self.connect.is_empty()
     }
+
+    /// The endpoints other machines can use without a client certificate: every listen or
+    /// connect endpoint that is not on loopback, unless it is `tls/` with a client CA set.
+    pub fn open_to_others(&self) -> Vec<&str> {
+        let mutual = self.tls.as_ref().is_some_and(|t| t.client_ca.is_some());
+        self.listen.iter().chain(&self.connect).map(String::as_str).filter(|e| !(is_loopback(e) || mutual && e.starts_with("tls/"))).collect()
+    }
+}
+
+/// What a daemon open to other machines without client certificates gives up, said where it
+/// is refused and where `--insecure` starts it anyway.
+pub const INSECURE_MEANS: &str = "anyone who reaches it can open sessions up to the limit, observe a session given its id, count the sessions, and answer opens and status queries in this daemon's place (an impostor daemon feeding clients false contacts); frames and replies of a session stay tagged with its secret";
+
+/// Whether a zenoh endpoint (`PROTOCOL/HOST:PORT`, possibly followed by `#` or `?` options)
+/// names this machine only: a loopback address or `localhost`.
+pub fn is_loopback(endpoint: &str) -> bool {
+    let address = endpoint.split_once('/').map_or(endpoint, |(_, a)| a);
+    let address = address.split(['#', '?']).next().unwrap_or(address);
+    let host = address.rsplit_once(':').map_or(address, |(h, _port)| h);
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    host.eq_ignore_ascii_case("localhost") || host.parse::<std::net::IpAddr>().is_ok_and(|ip| ip.is_loopback())
 }
 
 /// Bounds that keep the daemon's memory bounded whatever clients ask.
@@ -204,6 +230,11 @@ impl ServeConfig {
             }
             None => {}
         }
+        if let (false, Some(endpoint)) = (self.zenoh.insecure, self.zenoh.open_to_others().first()) {
+            return Err(ConfigError::Invalid(format!(
+                "zenoh endpoint {endpoint} is reachable from other machines without client certificates: {INSECURE_MEANS}. Serve it over tls/ with client certificates ([zenoh] tls with client_ca, or --zenoh-tls-cert, --zenoh-tls-key and --zenoh-client-ca; `lumen certs` makes a lab's CA and certificates), listen on loopback only, or start with --insecure ([zenoh] insecure = true) to accept that"
+            )));
+        }
         if !self.zenoh.access.is_empty() && self.zenoh.tls.as_ref().is_none_or(|t| t.client_ca.is_none()) {
             return Err(ConfigError::Invalid("[[zenoh.access]] names client certificates, but the daemon asks for none: set [zenoh] tls.client_ca (or --zenoh-client-ca)".into()));
         }
@@ -257,5 +288,36 @@ mod tests {
         assert!(toml::from_str::<ServeConfig>("[limits]\nmax_sesions = 3\n").unwrap_err().to_string().contains("max_sesions"));
         let off = ServeConfig { iceoryx2: IceoryxConfig { enabled: false, prefix: None }, ..Default::default() };
         assert!(off.validate().unwrap_err().to_string().contains("nothing to serve"));
+    }
+
+    #[test]
+    fn loopback_endpoints_are_told_from_the_rest() {
+        for e in ["tcp/127.0.0.1:7447", "tcp/127.8.0.1:1", "tls/localhost:7447", "tcp/[::1]:7447", "tcp/127.0.0.1:7447#iface=lo", "udp/LOCALHOST:9"] {
+            assert!(is_loopback(e), "{e}");
+        }
+        for e in ["tcp/0.0.0.0:7447", "tcp/10.0.0.5:7447", "tls/lab-server:7447", "tcp/[::]:7447", "tcp/192.168.1.2:7447", "tcp/localhost.example.org:1"] {
+            assert!(!is_loopback(e), "{e}");
+        }
+    }
+
+    #[test]
+    fn beyond_loopback_without_client_certificates_is_refused_unless_insecure() {
+        let zenoh = |listen: &str, connect: &[&str], tls: Option<TlsFiles>, insecure: bool| ServeConfig {
+            zenoh: ZenohConfig { listen: vec![listen.into()], connect: connect.iter().map(|s| s.to_string()).collect(), tls, insecure, ..Default::default() },
+            ..Default::default()
+        };
+        let e = zenoh("tcp/0.0.0.0:7447", &[], None, false).validate().unwrap_err().to_string();
+        assert!(e.starts_with("zenoh endpoint tcp/0.0.0.0:7447 is reachable from other machines without client certificates: anyone who reaches it can open sessions"), "{e}");
+        assert!(e.contains("--insecure") && e.contains("lumen certs"), "{e}");
+        assert!(zenoh("tcp/0.0.0.0:7447", &[], None, true).validate().is_ok());
+        assert!(zenoh("tcp/127.0.0.1:7447", &[], None, false).validate().is_ok());
+        // A router beyond loopback counts as well.
+        assert!(zenoh("tcp/127.0.0.1:7447", &["tcp/10.0.0.1:7447"], None, false).validate().unwrap_err().to_string().contains("tcp/10.0.0.1:7447"));
+        // tls/ with a client CA is what it asks for (files that exist: this source file).
+        let here = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/src/config.rs"));
+        let files = |ca: bool| Some(TlsFiles { certificate: here.clone(), private_key: here.clone(), client_ca: ca.then(|| here.clone()) });
+        assert!(zenoh("tls/0.0.0.0:7447", &[], files(true), false).validate().is_ok());
+        assert!(zenoh("tls/0.0.0.0:7447", &[], files(false), false).validate().unwrap_err().to_string().contains("tls/0.0.0.0:7447"));
+        assert!(zenoh("tls/0.0.0.0:7447", &[], files(true), false).zenoh.open_to_others().is_empty());
     }
 }

@@ -203,3 +203,78 @@ fn without_a_certificate_from_the_clients_ca_nothing_is_reached() {
     let _ = std::fs::remove_dir_all(&pki.dir);
     let _ = std::fs::remove_dir_all(&rogue.dir);
 }
+
+/// Beyond loopback the daemon wants client certificates: `lumen serve` on `tcp/0.0.0.0` is
+/// refused, saying what it would give up and how to do better; `--insecure` starts it and says
+/// the same on start-up; loopback needs neither.
+#[test]
+fn beyond_loopback_without_client_certificates_the_daemon_starts_only_when_told_insecure() {
+    let prefix = unique_prefix("insecure");
+    let listen = format!("tcp/0.0.0.0:{}", free_port());
+    let out = std::process::Command::new(LUMEN).args(["serve", "--prefix", &prefix, "--zenoh-listen", &listen]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "started: {stderr}");
+    assert!(stderr.contains(&format!("zenoh endpoint {listen} is reachable from other machines without client certificates")), "{stderr}");
+    assert!(stderr.contains("--insecure") && stderr.contains("lumen certs") && stderr.contains("impostor"), "{stderr}");
+    let mut daemon = std::process::Command::new(LUMEN)
+        .args(["serve", "--prefix", &prefix, "--zenoh-listen", &listen, "--insecure"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let ready = std::io::BufRead::lines(std::io::BufReader::new(daemon.stdout.take().unwrap())).map_while(Result::ok).any(|l| l.starts_with("lumen serve: ready"));
+    assert!(ready, "lumen serve --insecure did not get ready");
+    // It serves, here through loopback.
+    let endpoint = listen.replace("0.0.0.0", "127.0.0.1");
+    let scene = TestScene::new(20, 8, 10);
+    let mut s = answered(|| Client::zenoh(&endpoint).and_then(|c| c.open_session(&scene.spec))).unwrap();
+    s.frame().unwrap().copy_from_slice(&scene.state(0));
+    s.submit().unwrap();
+    assert!(s.contacts(WAIT).unwrap().result().is_ok());
+    drop(s);
+    // SAFETY: signalling our own child, not yet reaped.
+    unsafe { libc::kill(daemon.id() as i32, libc::SIGTERM) };
+    let out = daemon.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains(&format!("lumen serve: --insecure: {listen} reachable from other machines without client certificates: anyone who reaches it can open sessions")), "{stderr}");
+    lumen_transport::shm::remove_prefix(&prefix);
+}
+
+/// `lumen certs` makes a lab's CA, a daemon's certificate and client certificates; a second run
+/// in the same folder signs a new client with the same CA; a daemon on `tls/0.0.0.0` with them
+/// starts without `--insecure`, and both clients get contacts.
+#[test]
+fn lumen_certs_makes_a_lab_ca_and_certificates_a_daemon_and_clients_use() {
+    let dir = std::env::temp_dir().join(format!("lumen-certs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let certs = |args: &[&str]| {
+        let out = std::process::Command::new(LUMEN).arg("certs").arg("--out").arg(&dir).args(args).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    };
+    certs(&["--server", "localhost", "--server", "127.0.0.1", "--client", "physics-a"]);
+    certs(&["--client", "tutor"]);
+    // Keys readable by their owner alone; an existing certificate is never replaced.
+    use std::os::unix::fs::PermissionsExt;
+    for key in ["ca.key", "server.key", "physics-a.key", "tutor.key"] {
+        assert_eq!(std::fs::metadata(dir.join(key)).unwrap().permissions().mode() & 0o777, 0o600, "{key}");
+    }
+    let again = std::process::Command::new(LUMEN).args(["certs", "--out"]).arg(&dir).args(["--client", "tutor"]).output().unwrap();
+    assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("exists already"));
+    let port = free_port();
+    let p = |f: &str| dir.join(f).display().to_string();
+    let _d = Daemon::start(
+        Path::new(LUMEN),
+        &unique_prefix("certs"),
+        None,
+        &["--zenoh-listen", &format!("tls/0.0.0.0:{port}"), "--zenoh-tls-cert", &p("server.pem"), "--zenoh-tls-key", &p("server.key"), "--zenoh-client-ca", &p("ca.pem")],
+    );
+    let scene = TestScene::new(20, 8, 10);
+    for name in ["physics-a", "tutor"] {
+        let tls = Tls { root_ca: dir.join("ca.pem"), identity: Some((dir.join(format!("{name}.pem")), dir.join(format!("{name}.key")))) };
+        let mut s = answered(|| Client::zenoh_with_tls(&format!("tls/localhost:{port}"), &tls).and_then(|c| c.open_session(&scene.spec))).unwrap();
+        s.frame().unwrap().copy_from_slice(&scene.state(0));
+        s.submit().unwrap();
+        assert!(s.contacts(WAIT).unwrap().result().is_ok(), "{name}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

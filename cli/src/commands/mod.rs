@@ -1,6 +1,7 @@
 //! The `lumen` command line: one module per subcommand.
 
 pub mod bench;
+pub mod certs;
 pub mod demo;
 pub mod import;
 pub mod record;
@@ -47,6 +48,8 @@ pub enum Command {
     Replay(replay::ReplayArgs),
     /// A session (or a recording) in the browser: the wall, the scope and the contacts, live.
     View(view::ViewArgs),
+    /// A lab's certificate authority and its daemons' and clients' certificates (mutual TLS).
+    Certs(certs::CertsArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -67,6 +70,7 @@ impl Cli {
             Command::Record(a) => done(record::run(a)),
             Command::Replay(a) => done(replay::run(a)),
             Command::View(a) => done(view::run(a)),
+            Command::Certs(a) => done(certs::run(a)),
             Command::Bench(b) => done(b.run()),
         };
         match result {

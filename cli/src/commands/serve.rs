@@ -18,7 +18,8 @@ pub struct ServeArgs {
     /// Do not serve over iceoryx2.
     #[arg(long)]
     pub no_iceoryx2: bool,
-    /// Serve over zenoh, listening here (repeatable), e.g. tcp/0.0.0.0:7447.
+    /// Serve over zenoh, listening here (repeatable), e.g. tcp/127.0.0.1:7447; beyond loopback,
+    /// tls/0.0.0.0:7447 with client certificates (or --insecure).
     #[arg(long = "zenoh-listen", value_name = "ENDPOINT")]
     pub zenoh_listen: Vec<String>,
     /// Connect zenoh to this router (repeatable).
@@ -45,6 +46,11 @@ pub struct ServeArgs {
     /// present one (mutual TLS); what each may do is the config file's [[zenoh.access]].
     #[arg(long = "zenoh-client-ca", value_name = "PEM", requires = "zenoh_tls_cert")]
     pub zenoh_client_ca: Option<PathBuf>,
+    /// Serve zenoh endpoints that other machines can reach without client certificates:
+    /// anyone who reaches them can open and observe sessions and impersonate this daemon.
+    /// Without it such a start is refused; say why at start-up.
+    #[arg(long)]
+    pub insecure: bool,
     /// Most sessions at once.
     #[arg(long)]
     pub max_sessions: Option<usize>,
@@ -88,6 +94,9 @@ impl ServeArgs {
         if let Some(m) = &self.zenoh_mode {
             c.zenoh.mode = m.clone();
         }
+        if self.insecure {
+            c.zenoh.insecure = true;
+        }
         if let Some(n) = self.max_sessions {
             c.limits.max_sessions = n;
         }
@@ -101,6 +110,10 @@ impl ServeArgs {
 pub fn run(args: ServeArgs) -> CliResult {
     block_termination_signals();
     let config = args.config()?;
+    let open = config.zenoh.open_to_others();
+    if config.zenoh.insecure && !open.is_empty() {
+        eprintln!("lumen serve: --insecure: {} reachable from other machines without client certificates: {}", open.join(", "), lumen_service::config::INSECURE_MEANS);
+    }
     let running = Daemon::new(config.clone()).start()?;
     let name = running.registry.name.clone();
     let transports = [

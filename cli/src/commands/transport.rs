@@ -7,7 +7,7 @@ use lumen_client::{Client, LocalOptions, Tls, Transport};
 use std::path::PathBuf;
 
 /// The zenoh endpoint clients use when none is given (a daemon started with
-/// `--zenoh-listen tcp/0.0.0.0:7447` on this machine).
+/// `--zenoh-listen tcp/127.0.0.1:7447` on this machine).
 pub const DEFAULT_ZENOH: &str = "tcp/127.0.0.1:7447";
 
 /// Transport choice on the command line.
