@@ -139,7 +139,11 @@ impl Gate {
         if !bool::from(self.secret.message_tag(head, len).as_slice().ct_eq(tag)) {
             return false;
         }
-        self.last = Some(frame);
+        // A number beyond the frames' range is admitted (it is its owner's, and is answered
+        // with an error) but never raised to: it would lock every later frame out.
+        if frame <= crate::wire::MAX_FRAME_NUMBER {
+            self.last = Some(frame);
+        }
         true
     }
 }
@@ -268,8 +272,12 @@ mod tests {
         assert!(!gate.admit(&head(6), 100, &tag(&head(6), 100)[..31]), "a short tag");
         // Refusals leave the gate as it was; numbers may jump.
         assert!(gate.admit(&head(6), 100, &tag(&head(6), 100)));
-        assert!(gate.admit(&head(1 << 62), 100, &tag(&head(1 << 62), 100)));
-        assert!(!gate.admit(&head(7), 100, &tag(&head(7), 100)));
+        // A number beyond MAX_FRAME_NUMBER is its owner's (admitted, to be answered with an
+        // error) but locks nothing out; one within the range does.
+        assert!(gate.admit(&head(u64::MAX), 100, &tag(&head(u64::MAX), 100)));
+        assert!(gate.admit(&head(7), 100, &tag(&head(7), 100)));
+        assert!(gate.admit(&head(1 << 52), 100, &tag(&head(1 << 52), 100)));
+        assert!(!gate.admit(&head(8), 100, &tag(&head(8), 100)));
         // The tag is the keyed hash of the header then the length, as Python's `blake3` (a
         // foreign client) computes it:
         // blake3.blake3(bytes(40) + (64).to_bytes(8, "little"), key=bytes(range(32))).hexdigest()

@@ -15,6 +15,12 @@ use std::fmt;
 
 /// Version of the frame and contacts layouts (and of the control messages).
 pub const PROTOCOL_VERSION: u16 = 1;
+
+/// The largest frame number a frame may carry, 2^53 - 1 (safe in JSON doubles, as session ids
+/// are; 285,000 years at 1 kHz). A frame numbered beyond it is answered with status 1 and
+/// changes nothing: numbers go up from 0, and one at the top of the range would leave none
+/// above it for the frames after (over zenoh a frame must be numbered above every one before).
+pub const MAX_FRAME_NUMBER: u64 = (1 << 53) - 1;
 /// `FrameHeader::magic`: the bytes `L M N F` read as a little-endian `u32`.
 pub const FRAME_MAGIC: u32 = u32::from_le_bytes(*b"LMNF");
 /// `ContactsHeader::magic`: the bytes `L M N C` read as a little-endian `u32`.
@@ -64,7 +70,8 @@ pub struct FrameHeader {
 pub enum Status {
     /// Contacts computed; `count` of them follow.
     Ok = 0,
-    /// Not a frame: the magic is wrong, or reserved header flags are set.
+    /// Not a frame: the magic is wrong, reserved header flags are set, or the frame number is
+    /// beyond [`MAX_FRAME_NUMBER`].
     Malformed = 1,
     /// The header's version is not [`PROTOCOL_VERSION`].
     BadVersion = 2,
@@ -199,6 +206,8 @@ pub enum FrameError {
     Version { got: u16 },
     /// Reserved header flags set (version 1 defines none).
     Flags { got: u16 },
+    /// A frame number beyond [`MAX_FRAME_NUMBER`].
+    FrameNumber { got: u64 },
     /// Another session's frame.
     Session { expected: u64, got: u64 },
     /// Header or payload float count differs from the spec's state size.
@@ -216,6 +225,7 @@ impl fmt::Display for FrameError {
             FrameError::Magic { got } => write!(f, "frame magic is {got:#010x}; expected {FRAME_MAGIC:#010x} (\"LMNF\")"),
             FrameError::Version { got } => write!(f, "frame version {got}; this daemon speaks version {PROTOCOL_VERSION}"),
             FrameError::Flags { got } => write!(f, "frame flags are {got:#06x}; they are reserved in version {PROTOCOL_VERSION}: send 0"),
+            FrameError::FrameNumber { got } => write!(f, "frame number {got} is beyond {MAX_FRAME_NUMBER} (2^53 - 1): number frames 0, 1, 2, ..."),
             FrameError::Session { expected, got } => write!(f, "frame names session {got}; this is session {expected}"),
             FrameError::Floats { expected, header, payload } => {
                 write!(f, "frame holds {payload} floats (header says {header}); the spec's state needs exactly {expected}")
@@ -232,7 +242,7 @@ impl FrameError {
     /// The reply status for this error.
     pub fn status(&self) -> Status {
         match self {
-            FrameError::TooShort { .. } | FrameError::Magic { .. } | FrameError::Flags { .. } => Status::Malformed,
+            FrameError::TooShort { .. } | FrameError::Magic { .. } | FrameError::Flags { .. } | FrameError::FrameNumber { .. } => Status::Malformed,
             FrameError::Version { .. } => Status::BadVersion,
             FrameError::Session { .. } => Status::BadSession,
             FrameError::Floats { .. } | FrameError::Ragged { .. } => Status::BadLength,
@@ -288,6 +298,9 @@ impl FrameHeader {
         }
         if self.flags != 0 {
             return Err(FrameError::Flags { got: self.flags });
+        }
+        if self.frame > MAX_FRAME_NUMBER {
+            return Err(FrameError::FrameNumber { got: self.frame });
         }
         if self.session != session {
             return Err(FrameError::Session { expected: session, got: self.session });
@@ -591,6 +604,9 @@ mod tests {
         let flags = FrameHeader { flags: 1, ..good };
         assert_eq!(flags.check(5, &l, 30), Err(FrameError::Flags { got: 1 }));
         assert_eq!(FrameError::Flags { got: 1 }.status(), Status::Malformed);
+        let huge = FrameHeader { frame: u64::MAX, ..good };
+        assert_eq!(huge.check(5, &l, 30), Err(FrameError::FrameNumber { got: u64::MAX }));
+        assert_eq!(FrameHeader { frame: MAX_FRAME_NUMBER, ..good }.check(5, &l, 30), Ok(()));
         let mut state = Vec::with_capacity(30);
         let mut msg = Vec::new();
         encode_frame(&good, &(0..30).map(|i| i as f32).collect::<Vec<_>>(), &mut msg);

@@ -77,8 +77,9 @@ impl Engine {
     }
 
     fn refuse(&mut self, h: &FrameHeader, e: &FrameError) -> ContactsHeader {
-        if h.magic == lumen_proto::wire::FRAME_MAGIC && h.session == self.id {
-            self.last_frame = Some(h.frame); // answered, if with an error: not skipped
+        // Answered, if with an error: not skipped; a number beyond the range counts for nothing.
+        if h.magic == lumen_proto::wire::FRAME_MAGIC && h.session == self.id && h.frame <= lumen_proto::wire::MAX_FRAME_NUMBER {
+            self.last_frame = Some(h.frame);
         }
         let mut reply = ContactsHeader::reply_to(h);
         reply.session = self.id;
@@ -89,7 +90,7 @@ impl Engine {
     /// Frames skipped between the previous frame and this one (newest-wins).
     fn skipped(&mut self, h: &FrameHeader) -> u32 {
         let skipped = match self.last_frame {
-            Some(last) if h.frame > last + 1 => (h.frame - last - 1).min(u32::MAX as u64) as u32,
+            Some(last) if h.frame > last.saturating_add(1) => (h.frame - last - 1).min(u32::MAX as u64) as u32,
             _ => 0,
         };
         self.last_frame = Some(h.frame);

@@ -18,6 +18,9 @@ pub enum DaemonError {
     /// Another daemon of the same name already serves on the zenoh network.
     #[error("a daemon named {0:?} already serves on this zenoh network: give this one another name ([zenoh] name, or --zenoh-name)")]
     NameTaken(String),
+    /// Another daemon already serves the control service of this iceoryx2 prefix.
+    #[error("another Lumen daemon already serves iceoryx2 prefix {0:?} on this machine: stop it, or start this one with another --prefix (clients then need the same, LUMEN_IOX2_PREFIX)")]
+    PrefixTaken(String),
     /// A thread stopped before it reported that it serves.
     #[error("the {0} thread stopped before it served")]
     Stopped(String),

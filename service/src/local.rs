@@ -67,6 +67,11 @@ impl Local {
         let name = service_name(CONTROL)?;
         let service =
             node.service_builder(&name).request_response::<[u8], [u8]>().max_clients(256).max_active_requests_per_client(1).open_or_create().map_err(|e| iox("creating the control service", e))?;
+        // One daemon a prefix: a second would answer opens too, and each client would land on
+        // whichever took its request. Dead daemons' servers went with the cleanup above.
+        if service.dynamic_config().number_of_servers() > 0 {
+            return Err(DaemonError::PrefixTaken(self.prefix.clone().unwrap_or_else(|| "iox2_".into())));
+        }
         let server = service.server_builder().initial_max_slice_len(64 * 1024).allocation_strategy(AllocationStrategy::PowerOfTwo).create().map_err(|e| iox("creating the control server", e))?;
         let wake = node.service_builder(&name).event().max_notifiers(256).open_or_create().map_err(|e| iox("creating the control event", e))?;
         let listener = wake.listener_builder().create().map_err(|e| iox("creating the control listener", e))?;

@@ -442,3 +442,24 @@ fn a_strangers_publisher_and_peer_died_events_change_nothing() {
     assert_eq!((st.frames, st.bad_frames), (20, 0));
     assert!((1..=5).contains(&st.forged), "forged {}", st.forged);
 }
+
+/// One daemon a prefix: a second `lumen serve` on a prefix a live daemon serves refuses to
+/// start, naming the prefix (two would each answer some opens); once that daemon is killed,
+/// one starts there again.
+#[test]
+fn a_second_daemon_on_a_served_prefix_refuses_to_start() {
+    let prefix = unique_prefix("twice");
+    let mut first = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let out = Command::new(LUMEN).args(["serve", "--prefix", &prefix]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "a second daemon started: {stderr}");
+    assert!(stderr.contains(&format!("another Lumen daemon already serves iceoryx2 prefix {prefix:?}")), "{stderr}");
+    // The first one still serves.
+    let mut s = client(&prefix).open_session(&scene().spec).unwrap();
+    s.frame().unwrap().copy_from_slice(&scene().state(0));
+    s.submit().unwrap();
+    assert!(s.contacts(WAIT).unwrap().result().is_ok());
+    drop(s);
+    first.process.kill9();
+    let _second = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+}

@@ -41,7 +41,10 @@ fn pages() -> Vec<PathBuf> {
 /// The command lines of `text`'s `sh` blocks, with the line number each starts on: lines
 /// ending in `\` joined with the next.
 fn shell_lines(text: &str) -> Vec<(usize, String)> {
-    let (mut out, mut in_sh, mut pending): (Vec<(usize, String)>, bool, Option<(usize, String)>) = (Vec::new(), false, None);
+    let mut out: Vec<(usize, String)> = Vec::new();
+    let mut in_sh = false;
+    // A line ending in `\` so far: where it started and its text.
+    let mut pending: Option<(usize, String)> = None;
     for (i, line) in text.lines().enumerate() {
         let fence = line.trim_start();
         if fence.starts_with("```") {

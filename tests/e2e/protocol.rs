@@ -178,3 +178,27 @@ fn status_json_prints_the_daemons_raw_reply() {
     let keys = |v: &Value| v.as_object().unwrap().keys().cloned().collect::<Vec<_>>();
     assert_eq!(keys(&printed), keys(&raw), "lumen status --json and the raw reply have other fields");
 }
+
+#[test]
+fn a_frame_numbered_beyond_2_pow_53_is_answered_malformed_and_later_frames_go_on() {
+    let d = daemon("pnumber", &[]);
+    let scene = TestScene::new(20, 8, 10);
+    let clients = [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("number".into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()];
+    for client in clients {
+        let mut s = client.open_session(&scene.spec).unwrap();
+        s.frame().unwrap().copy_from_slice(&scene.state(0));
+        s.submit_with(|h| h.frame = u64::MAX).unwrap();
+        let reply = s.contacts(WAIT).unwrap();
+        assert_eq!(reply.frame(), u64::MAX);
+        let (status, message) = reply.result().unwrap_err();
+        assert_eq!(status, Status::Malformed, "{message}");
+        assert!(message.contains("frame number 18446744073709551615 is beyond 9007199254740991"), "{message}");
+        for k in 1..4 {
+            s.frame().unwrap().copy_from_slice(&scene.state(k));
+            let sent = s.submit().unwrap();
+            let reply = s.contacts(WAIT).unwrap_or_else(|e| panic!("{:?}: frame {sent} after u64::MAX: {e}", client.transport()));
+            assert_eq!(reply.frame(), sent);
+            assert!(reply.result().is_ok(), "{:?}", reply.result());
+        }
+    }
+}
