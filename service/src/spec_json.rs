@@ -54,12 +54,12 @@ fn locate(value: &Value) -> Option<String> {
         }
     }
     let field = |name: &str, read: fn(&Value) -> Result<(), String>| object.get(name).and_then(|v| read(v).err().map(|e| format!("{name}: {e}")));
-    field("precision", |v| read::<u32>(v))
-        .or_else(|| field("refine", |v| read::<u32>(v)))
-        .or_else(|| field("alpha", |v| read::<f32>(v)))
-        .or_else(|| field("margin", |v| read::<f32>(v)))
-        .or_else(|| field("method", |v| read::<lumen_proto::Method>(v)))
-        .or_else(|| field("nearest", |v| read::<bool>(v)))
+    field("precision", read::<u32>)
+        .or_else(|| field("refine", read::<u32>))
+        .or_else(|| field("alpha", read::<f32>))
+        .or_else(|| field("margin", read::<f32>))
+        .or_else(|| field("method", read::<lumen_proto::Method>))
+        .or_else(|| field("nearest", read::<bool>))
 }
 
 /// Whether `value` parses as a `T`, and serde's reason if not.
