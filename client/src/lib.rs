@@ -127,7 +127,7 @@ impl Client {
     /// that signed the daemon's certificate and, for a daemon that asks for client
     /// certificates (mutual TLS), this client's own certificate and key.
     pub fn zenoh_with_tls(endpoint: &str, tls: &Tls) -> Result<Self, Error> {
-        let mut config = lumen_transport::net::config("client", &[], &[endpoint.to_owned()])?;
+        let mut config = lumen_transport::net::client_config(&[endpoint.to_owned()])?;
         let mut files = vec![("root_ca_certificate", &tls.root_ca)];
         if let Some((certificate, key)) = &tls.identity {
             files.extend([("connect_certificate", certificate), ("connect_private_key", key)]);

@@ -9,7 +9,7 @@ use lumen_proto::session::{ControlReply, ControlRequest, DaemonInfo, ErrorCode, 
 use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::{daemon_alive_name, observe_name, session_live_name, AFTER_PARAMETER, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER, END_PARAMETER, OBSERVER_PARAMETER};
-use lumen_transport::net::{config, tagged_queue, ASK_HOLD, CONGESTION, CONTACTS_QUEUE, OBSERVER_CONGESTION};
+use lumen_transport::net::{tagged_queue, ASK_HOLD, CONGESTION, CONTACTS_QUEUE, OBSERVER_CONGESTION};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -39,7 +39,7 @@ pub(crate) struct Route {
 impl ZenohClient {
     /// Connects in client mode to `endpoint` (e.g. `tcp/127.0.0.1:7447`).
     pub fn connect(endpoint: &str) -> Result<Self, Error> {
-        Self::with_config(config("client", &[], &[endpoint.to_owned()])?, endpoint)
+        Self::with_config(lumen_transport::net::client_config(&[endpoint.to_owned()])?, endpoint)
     }
 
     /// Sends control requests on `lumen/control/<name>`, as a client whose certificate's common

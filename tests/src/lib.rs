@@ -62,7 +62,7 @@ pub fn snippet(file: &Path, name: &str) -> (String, usize) {
 
 use lumen_detect::{ContactKind, Rod, Scene, Tube};
 use lumen_proto::{Contact, SceneSpec};
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -435,4 +435,83 @@ pub fn build_c_example(name: &str, out_dir: &Path) -> PathBuf {
         .unwrap_or_else(|e| panic!("running {cc}: {e}"));
     assert!(built.status.success(), "{cc} failed on {name}.c:\n{}", String::from_utf8_lossy(&built.stderr));
     exe
+}
+
+/// A slow subscriber on `key` over `z` (zenoh's defaults), run as a client role: its callback
+/// sleeps half a second per sample, as a careless recorder's might. Prints `subscribed` at start
+/// and on a stdin line `on`, undeclares it and prints `paused` on `off`; when stdin closes,
+/// prints `saw N` (the samples it got).
+pub fn slow_subscriber(z: zenoh::Session, key: &str) {
+    use zenoh::Wait;
+    let saw = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let subscribe = || {
+        let saw = saw.clone();
+        z.declare_subscriber(key.to_owned())
+            .callback(move |_| {
+                saw.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                std::thread::sleep(Duration::from_millis(500));
+            })
+            .wait()
+            .expect("subscribing")
+    };
+    let mut sub = Some(subscribe());
+    println!("\nsubscribed"); // on a line of its own: the test harness left "test ... " open
+    for line in std::io::stdin().lock().lines().map_while(Result::ok) {
+        match line.trim() {
+            "off" => {
+                if let Some(s) = sub.take() {
+                    s.undeclare().wait().expect("undeclaring");
+                }
+                println!("paused");
+            }
+            "on" => {
+                sub.get_or_insert_with(subscribe);
+                println!("subscribed");
+            }
+            _ => {}
+        }
+    }
+    println!("saw {}", saw.load(std::sync::atomic::Ordering::Relaxed));
+}
+
+/// A colon-sized session's frame rate (frames per second of round trips) with `stranger`
+/// ([`slow_subscriber`] in a child) subscribed and not, alternated five times: the medians
+/// (alone, beside it). Fails if the stranger saw fewer than 2 samples (it then proves nothing).
+pub fn rate_beside_a_slow_subscriber(client: &lumen_client::Client, mut stranger: ChildProcess) -> (f64, f64) {
+    // The colonoscopy's size (485 KiB frames): a slow reader's link fills within frames.
+    let scene = TestScene::new(1250, 32, 160);
+    let mut s = client.open_session(&scene.spec).expect("open");
+    let rate = |s: &mut lumen_client::Session, frames: u64| {
+        let start = Instant::now();
+        for k in 0..frames {
+            s.frame().expect("frame").copy_from_slice(&scene.state(k));
+            s.submit().expect("submit");
+            s.contacts(Duration::from_secs(3)).expect("a reply within 3 s");
+        }
+        frames as f64 / start.elapsed().as_secs_f64()
+    };
+    rate(&mut s, 30); // warm-up
+    assert!(stranger.line_starting("subscribed", Duration::from_secs(20)).is_some(), "the subscriber did not start");
+    let say = |p: &mut ChildProcess, what: &str, ack: &str| {
+        p.child.stdin.as_mut().expect("piped").write_all(format!("{what}\n").as_bytes()).expect("writing to the subscriber");
+        assert!(p.line_starting(ack, Duration::from_secs(30)).is_some(), "the subscriber did not answer {what}");
+        std::thread::sleep(Duration::from_millis(300)); // the (un)subscription reaches the daemon
+    };
+    let (mut alone, mut beside) = (Vec::new(), Vec::new());
+    for _ in 0..5 {
+        say(&mut stranger, "off", "paused");
+        alone.push(rate(&mut s, 200));
+        say(&mut stranger, "on", "subscribed");
+        beside.push(rate(&mut s, 200));
+    }
+    stranger.close_stdin();
+    let saw: usize = stranger.line_starting("saw ", Duration::from_secs(60)).expect("the subscriber's count")["saw ".len()..].trim().parse().expect("a count");
+    assert!(saw >= 2, "the slow subscriber saw {saw} samples: the test proves nothing");
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[2]
+    };
+    let (alone, beside) = (median(&mut alone), median(&mut beside));
+    eprintln!("session frame rate, medians of 5 alternated windows: {alone:.0}/s alone, {beside:.0}/s beside a subscriber that sleeps 0.5 s per sample");
+    (alone, beside)
 }
