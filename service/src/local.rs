@@ -293,6 +293,32 @@ impl Channels {
     }
 }
 
+impl Channels {
+    /// Whether the process that opened the session is gone: its node dead, or no longer listed
+    /// (the control thread removes dead nodes every tick). A client killed right after it
+    /// opened, before any tick saw its frame publisher, leaves nothing else behind: without
+    /// this look its session waited out [`CONNECT_GRACE`]. An opener that could not be told, or
+    /// a list that cannot be read: not gone.
+    fn opener_gone(&self, cfg: &Config) -> bool {
+        let Some(opener) = self.opener else { return false };
+        let mut listed = false;
+        let read = Node::<Svc>::list(cfg, |state| {
+            let id = match &state {
+                NodeState::Alive(view) => *view.id(),
+                NodeState::Inaccessible(id) | NodeState::Undefined(id) => *id,
+                NodeState::Dead(_) => return CallbackProgression::Continue,
+            };
+            listed |= id == opener;
+            if listed {
+                CallbackProgression::Stop
+            } else {
+                CallbackProgression::Continue
+            }
+        });
+        read.is_ok() && !listed
+    }
+}
+
 /// What a session's tick sees of its client.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum ClientState {
@@ -344,6 +370,10 @@ fn run_session(cfg: &Config, plan: Plan, opener: Option<UniqueNodeId>, registry:
                     }
                     ClientState::Absent if opened.elapsed() > CONNECT_GRACE => {
                         why = "no client attached in time";
+                        return CallbackProgression::Stop;
+                    }
+                    ClientState::Absent if channels.opener_gone(cfg) => {
+                        why = "its client died before it attached";
                         return CallbackProgression::Stop;
                     }
                     ClientState::Absent => {}

@@ -463,3 +463,31 @@ fn a_second_daemon_on_a_served_prefix_refuses_to_start() {
     first.process.kill9();
     let _second = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
 }
+
+/// This test binary re-run as a client that opens a session (its frame publisher made with it),
+/// prints `session <id>`, and then waits, sending nothing, until it is killed.
+#[test]
+fn open_and_wait_role() {
+    if std::env::var("LUMEN_E2E_ROLE").is_ok() {
+        let s = Client::local().expect("client").open_session(&scene().spec).expect("open");
+        println!("\nsession {}", s.id());
+        let _ = std::io::stdin().read_line(&mut String::new());
+    }
+}
+
+/// Clients killed right after they open, before the daemon's tick sees their frame publisher
+/// (iceoryx2's cleanup may then remove it first): each session is still freed within a
+/// second and a half, not after the 5 s a client that never attaches is given.
+#[test]
+fn clients_killed_right_after_they_open_are_freed_within_a_second() {
+    let prefix = unique_prefix("early");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let status = client(&prefix);
+    for round in 0..6 {
+        let mut victim = lumen_e2e::spawn_client_role("open_and_wait_role", &[("LUMEN_IOX2_PREFIX", prefix.as_str())]);
+        let id = victim.session_id();
+        let noticed = kill9_and_time_freeing(&mut victim, &status, id).unwrap_or_else(|last| panic!("round {round}: session {id} not freed; last status: {last}"));
+        eprintln!("round {round}: killed right after opening, freed after {noticed:?}");
+        assert!(noticed < Duration::from_millis(1500), "round {round}: freed after {noticed:?}");
+    }
+}
