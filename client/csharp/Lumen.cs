@@ -179,7 +179,7 @@ namespace Lumen
             return new Client(h);
         }
 
-        /// <summary>The daemon at a zenoh endpoint such as <c>tcp/10.0.0.5:7447</c>.</summary>
+        /// <summary>The daemon at a zenoh endpoint such as <c>tcp/127.0.0.1:7447</c>; a plain endpoint on another machine is refused unless the environment has <c>LUMEN_ZENOH_INSECURE=1</c> (the daemon there cannot be authenticated; use TLS).</summary>
         public static Client Zenoh(string endpoint, string name = null)
         {
             IntPtr h;

@@ -10,6 +10,9 @@ pub enum Error {
         "no Lumen daemon answered on {transport} ({detail}): start one with `lumen serve` (the same iceoryx2 prefix / zenoh endpoint); if one runs, it may be too busy to answer in time: try again"
     )]
     NoDaemon { transport: Transport, detail: String },
+    /// A plain zenoh endpoint beyond loopback: the daemon there cannot be authenticated.
+    #[error("{endpoint} is not on this machine, and over a plain endpoint anyone there could answer in the daemon's place (an impostor feeding false contacts): connect over tls/ with the lab's CA (lumen certs; Client::zenoh_tls, --zenoh-ca), or accept that with Client::zenoh_insecure (--insecure, LUMEN_ZENOH_INSECURE=1)")]
+    Unauthenticated { endpoint: String },
     /// The daemon answered with an error (invalid spec, limits, unknown session...).
     #[error("the daemon refused: {} ({:?})", .0.message, .0.code)]
     Refused(ControlError),

@@ -109,10 +109,23 @@ impl Client {
         Ok(Self { inner, name: options.name.unwrap_or_else(default_name) })
     }
 
-    /// A client of the daemon at a zenoh endpoint such as `tcp/127.0.0.1:7447` (TLS:
-    /// `tls/host:port`, configured through `ZENOH_CONFIG`-style JSON5 in
-    /// [`remote::ZenohClient::with_config`]).
+    /// A client of the daemon at a zenoh endpoint on this machine, such as
+    /// `tcp/127.0.0.1:7447`. Beyond loopback a plain endpoint cannot tell the daemon from
+    /// anyone answering in its place, so it is refused ([`Error::Unauthenticated`]): connect
+    /// with [`Client::zenoh_tls`] / [`Client::zenoh_with_tls`] (the daemon's certificate checked
+    /// against the lab's CA), or, accepting that, with [`Client::zenoh_insecure`] (or the
+    /// environment variable `LUMEN_ZENOH_INSECURE=1`, for the C, C# and Python clients).
     pub fn zenoh(endpoint: &str) -> Result<Self, Error> {
+        if !lumen_transport::net::is_loopback(endpoint) && std::env::var("LUMEN_ZENOH_INSECURE").as_deref() != Ok("1") {
+            return Err(Error::Unauthenticated { endpoint: endpoint.to_owned() });
+        }
+        Self::zenoh_insecure(endpoint)
+    }
+
+    /// A client of the daemon at any plain zenoh endpoint, on this machine or not, without
+    /// authenticating the daemon: whoever answers there is taken for it (an impostor could feed
+    /// false contacts). For a lab's trusted network; [`Client::zenoh_with_tls`] otherwise.
+    pub fn zenoh_insecure(endpoint: &str) -> Result<Self, Error> {
         Ok(Self { inner: Inner::Zenoh(remote::ZenohClient::connect(endpoint)?), name: default_name() })
     }
 
@@ -254,4 +267,25 @@ impl Client {
 
 fn default_name() -> String {
     std::env::current_exe().ok().and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned())).unwrap_or_else(|| "client".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plain endpoint on another machine is refused before any connection is tried, naming
+    /// the endpoint and the ways out; TLS endpoints go through `zenoh_with_tls`.
+    #[test]
+    fn a_plain_endpoint_beyond_loopback_is_refused_unauthenticated() {
+        for endpoint in ["tcp/10.0.0.5:7447", "tcp/0.0.0.0:7447", "tcp/lab-server:7447", "udp/[2001:db8::1]:7447"] {
+            match Client::zenoh(endpoint) {
+                Err(e @ Error::Unauthenticated { .. }) => {
+                    let m = e.to_string();
+                    assert!(m.starts_with(&format!("{endpoint} is not on this machine")) && m.contains("zenoh_insecure") && m.contains("LUMEN_ZENOH_INSECURE=1"), "{m}");
+                }
+                Err(e) => panic!("{endpoint}: {e}"),
+                Ok(_) => panic!("{endpoint}: connected"),
+            }
+        }
+    }
 }

@@ -20,7 +20,7 @@ pub const PROTOCOL_VERSION: u16 = 1;
 /// are; 285,000 years at 1 kHz). A frame numbered beyond it is answered with status 1 and
 /// changes nothing: numbers go up from 0, and one at the top of the range would leave none
 /// above it for the frames after (over zenoh a frame must be numbered above every one before).
-pub const MAX_FRAME_NUMBER: u64 = (1 << 53) - 1;
+pub const MAX_FRAME_NUMBER: u64 = 9_007_199_254_740_991;
 /// `FrameHeader::magic`: the bytes `L M N F` read as a little-endian `u32`.
 pub const FRAME_MAGIC: u32 = u32::from_le_bytes(*b"LMNF");
 /// `ContactsHeader::magic`: the bytes `L M N C` read as a little-endian `u32`.
@@ -607,6 +607,7 @@ mod tests {
         let huge = FrameHeader { frame: u64::MAX, ..good };
         assert_eq!(huge.check(5, &l, 30), Err(FrameError::FrameNumber { got: u64::MAX }));
         assert_eq!(FrameHeader { frame: MAX_FRAME_NUMBER, ..good }.check(5, &l, 30), Ok(()));
+        assert_eq!(MAX_FRAME_NUMBER, (1 << 53) - 1);
         let mut state = Vec::with_capacity(30);
         let mut msg = Vec::new();
         encode_frame(&good, &(0..30).map(|i| i as f32).collect::<Vec<_>>(), &mut msg);

@@ -159,15 +159,8 @@ impl ZenohConfig {
 /// is refused and where `--insecure` starts it anyway.
 pub const INSECURE_MEANS: &str = "anyone who reaches it can open sessions up to the limit, observe a session given its id, count the sessions, and answer opens and status queries in this daemon's place (an impostor daemon feeding clients false contacts); frames and replies of a session stay tagged with its secret";
 
-/// Whether a zenoh endpoint (`PROTOCOL/HOST:PORT`, possibly followed by `#` or `?` options)
-/// names this machine only: a loopback address or `localhost`.
-pub fn is_loopback(endpoint: &str) -> bool {
-    let address = endpoint.split_once('/').map_or(endpoint, |(_, a)| a);
-    let address = address.split(['#', '?']).next().unwrap_or(address);
-    let host = address.rsplit_once(':').map_or(address, |(h, _port)| h);
-    let host = host.trim_start_matches('[').trim_end_matches(']');
-    host.eq_ignore_ascii_case("localhost") || host.parse::<std::net::IpAddr>().is_ok_and(|ip| ip.is_loopback())
-}
+/// Whether a zenoh endpoint names this machine only ([`lumen_transport::net::is_loopback`]).
+pub use lumen_transport::net::is_loopback;
 
 /// Bounds that keep the daemon's memory bounded whatever clients ask.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -313,8 +313,9 @@ fn a_certified_slow_subscriber_does_not_slow_another_certificates_session() {
         "slow_certified_subscriber_role",
         &[("LUMEN_E2E_ENDPOINT", endpoint.as_str()), ("LUMEN_E2E_CA", ca.as_str()), ("LUMEN_E2E_CERT", cert.as_str()), ("LUMEN_E2E_KEY", key.as_str())],
     );
-    let (alone, beside) = lumen_e2e::rate_beside_a_slow_subscriber(&client, stranger);
+    let (alone, beside) = lumen_e2e::rate_beside_a_slow_subscriber(&client, stranger, || {});
     // Measured 0.82 to 1.03 of alone on the development VM, whose two cores carry the daemon,
-    // the client and the subscriber; with congestion control *block* it was 0.02.
-    assert!(beside > 0.75 * alone, "{beside:.0}/s beside the certified slow subscriber, {alone:.0}/s alone");
+    // the client and the subscriber (0.75 with the rest of the suite running beside it); with
+    // congestion control *block* it was 0.02, or replies stopped coming.
+    assert!(beside > 0.5 * alone, "{beside:.0}/s beside the certified slow subscriber, {alone:.0}/s alone");
 }

@@ -176,10 +176,20 @@ fn a_slow_raw_subscriber_does_not_slow_the_sessions() {
     let endpoint = d.endpoint();
     let client = Client::zenoh(&endpoint).unwrap();
     let stranger = lumen_e2e::spawn_client_role("slow_subscriber_role", &[("LUMEN_E2E_ENDPOINT", endpoint.as_str()), ("LUMEN_E2E_SUBSCRIBE", "lumen/**")]);
-    let (alone, beside) = lumen_e2e::rate_beside_a_slow_subscriber(&client, stranger);
+    // The daemon stops promptly on SIGTERM with the stranger still subscribed and asleep.
+    let mut stopped = None;
+    let (alone, beside) = lumen_e2e::rate_beside_a_slow_subscriber(&client, stranger, || {
+        let t0 = std::time::Instant::now();
+        let status = d.terminate();
+        stopped = Some((t0.elapsed(), status));
+    });
+    let (took, status) = stopped.expect("stopped");
+    assert_eq!(status.map(|s| s.success()), Some(true), "the daemon's exit");
+    assert!(took < Duration::from_secs(2), "the daemon took {took:?} to stop on SIGTERM beside a slow subscriber");
     // Measured 0.82 to 1.03 of alone on the development VM, whose two cores carry the daemon,
-    // the client and the subscriber; with congestion control *block* it was 0.02.
-    assert!(beside > 0.75 * alone, "{beside:.0}/s beside the slow subscriber, {alone:.0}/s alone");
+    // the client and the subscriber (0.75 with the rest of the suite running beside it); with
+    // congestion control *block* it was 0.02, or replies stopped coming.
+    assert!(beside > 0.5 * alone, "{beside:.0}/s beside the slow subscriber, {alone:.0}/s alone");
 }
 
 #[test]

@@ -476,8 +476,10 @@ pub fn slow_subscriber(z: zenoh::Session, key: &str) {
 
 /// A colon-sized session's frame rate (frames per second of round trips) with `stranger`
 /// ([`slow_subscriber`] in a child) subscribed and not, alternated five times: the medians
-/// (alone, beside it). Fails if the stranger saw fewer than 2 samples (it then proves nothing).
-pub fn rate_beside_a_slow_subscriber(client: &lumen_client::Client, mut stranger: ChildProcess) -> (f64, f64) {
+/// (alone, beside it). Then `before_it_ends` runs with the stranger still subscribed (and
+/// asleep in its callback). Fails if the stranger saw fewer than 2 samples (it then proves
+/// nothing).
+pub fn rate_beside_a_slow_subscriber(client: &lumen_client::Client, mut stranger: ChildProcess, before_it_ends: impl FnOnce()) -> (f64, f64) {
     // The colonoscopy's size (485 KiB frames): a slow reader's link fills within frames.
     let scene = TestScene::new(1250, 32, 160);
     let mut s = client.open_session(&scene.spec).expect("open");
@@ -504,6 +506,8 @@ pub fn rate_beside_a_slow_subscriber(client: &lumen_client::Client, mut stranger
         say(&mut stranger, "on", "subscribed");
         beside.push(rate(&mut s, 200));
     }
+    drop(s);
+    before_it_ends();
     stranger.close_stdin();
     let saw: usize = stranger.line_starting("saw ", Duration::from_secs(60)).expect("the subscriber's count")["saw ".len()..].trim().parse().expect("a count");
     assert!(saw >= 2, "the slow subscriber saw {saw} samples: the test proves nothing");

@@ -43,6 +43,17 @@ pub fn config(mode: &str, listen: &[String], connect: &[String]) -> Result<zenoh
     Ok(c)
 }
 
+/// Whether a zenoh endpoint (`PROTOCOL/HOST:PORT`, possibly followed by `#` or `?` options)
+/// names this machine only: a loopback address or `localhost`. Beyond loopback the daemon wants
+/// client certificates and a client wants to authenticate the daemon (TLS).
+pub fn is_loopback(endpoint: &str) -> bool {
+    let address = endpoint.split_once('/').map_or(endpoint, |(_, a)| a);
+    let address = address.split(['#', '?']).next().unwrap_or(address);
+    let host = address.rsplit_once(':').map_or(address, |(h, _port)| h);
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    host.eq_ignore_ascii_case("localhost") || host.parse::<std::net::IpAddr>().is_ok_and(|ip| ip.is_loopback())
+}
+
 /// How long a client's put waits for room on its own link before zenoh drops it, us: a frame
 /// is dropped only after its link has stalled this long (zenoh waits 1 ms, 50 ms for a
 /// fragmented message, by default; a colon-sized frame is fragmented). [`client_config`].

@@ -54,6 +54,10 @@ pub struct TransportArgs {
     /// daemon of the zenoh network.
     #[arg(long = "daemon", value_name = "NAME")]
     pub daemon: Option<String>,
+    /// Connect to a plain (not tls/) zenoh endpoint on another machine, taking whoever answers
+    /// there for the daemon (without it such an endpoint is refused).
+    #[arg(long)]
+    pub insecure: bool,
 }
 
 impl TransportArgs {
@@ -72,6 +76,7 @@ impl TransportArgs {
             Transport::Zenoh => {
                 let endpoint = self.zenoh.as_deref().unwrap_or(DEFAULT_ZENOH);
                 let client = match &self.zenoh_ca {
+                    None if self.insecure => Client::zenoh_insecure(endpoint)?,
                     None => Client::zenoh(endpoint)?,
                     Some(ca) => {
                         let identity = self.zenoh_cert.clone().zip(self.zenoh_key.clone());

@@ -219,7 +219,8 @@ impl IpcBench {
     fn client(&self, t: Transport) -> Result<Client, ClientError> {
         match t {
             Transport::Iceoryx2 => Client::local_with(LocalOptions { prefix: Some(self.prefix.clone()), name: Some("bench".into()) }),
-            Transport::Zenoh => Client::zenoh(&self.endpoint),
+            // The bench's own daemon, wherever it was told to listen.
+            Transport::Zenoh => Client::zenoh_insecure(&self.endpoint),
         }
     }
 
@@ -228,7 +229,10 @@ impl IpcBench {
         let exe = std::env::current_exe().map_err(CliError::CurrentExe)?;
         // Status lists the sessions to the bench's own zenoh client too (not only counts): it
         // reads each session's daemon-side time from there.
-        let args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--zenoh-status", "sessions", "--log", "warn"].iter().map(|s| s.to_string()).collect();
+        let mut args: Vec<String> = ["--prefix", &self.prefix, "--zenoh-listen", &self.endpoint, "--zenoh-status", "sessions", "--log", "warn"].iter().map(|s| s.to_string()).collect();
+        if !lumen_transport::net::is_loopback(&self.endpoint) {
+            args.push("--insecure".into()); // told to listen beyond loopback, for a measurement
+        }
         let _daemon = DaemonChild::spawn(&exe, &args)?;
         let (spec, states) = if self.stand_in { scene::stand_in(FRAMES) } else { scene::generated(FRAMES) };
         let layout = StateLayout::of(&spec);

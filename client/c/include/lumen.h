@@ -43,6 +43,14 @@
 #define LUMEN_PROTOCOL_VERSION 1
 
 /**
+ * The largest frame number a frame may carry, 2^53 - 1 (safe in JSON doubles, as session ids
+ * are; 285,000 years at 1 kHz). A frame numbered beyond it is answered with status 1 and
+ * changes nothing: numbers go up from 0, and one at the top of the range would leave none
+ * above it for the frames after (over zenoh a frame must be numbered above every one before).
+ */
+#define LUMEN_MAX_FRAME_NUMBER 9007199254740991
+
+/**
  * Size of [`FrameHeader`] in bytes.
  */
 #define LUMEN_FRAME_HEADER_BYTES 40
@@ -238,7 +246,8 @@ enum LumenFrameStatus
    */
   LUMEN_FRAME_STATUS_OK = 0,
   /**
-   * Not a frame: shorter than a header, or the magic is wrong.
+   * Not a frame: the magic is wrong, reserved header flags are set, or the frame number is
+   * beyond [`MAX_FRAME_NUMBER`].
    */
   LUMEN_FRAME_STATUS_MALFORMED = 1,
   /**
@@ -610,6 +619,8 @@ LumenStatus lumen_client_local(const char *prefix, const char *name, struct Lume
  *
  * On `LUMEN_STATUS_OK`, `*out` is the new client. `LUMEN_STATUS_NO_DAEMON` when the endpoint
  * cannot be reached or a TLS file does not exist (the message names it).
+ * `LUMEN_STATUS_TRANSPORT` for a plain (not `tls/`) endpoint on another machine, whose daemon
+ * cannot be authenticated, unless the environment has `LUMEN_ZENOH_INSECURE=1`.
  *
  * # Safety
  * `endpoint` is NUL-terminated; `tls` is NULL or points to a `LumenTls` whose strings are

@@ -65,6 +65,8 @@ pub unsafe extern "C" fn lumen_client_local(prefix: *const c_char, name: *const 
 ///
 /// On `LUMEN_STATUS_OK`, `*out` is the new client. `LUMEN_STATUS_NO_DAEMON` when the endpoint
 /// cannot be reached or a TLS file does not exist (the message names it).
+/// `LUMEN_STATUS_TRANSPORT` for a plain (not `tls/`) endpoint on another machine, whose daemon
+/// cannot be authenticated, unless the environment has `LUMEN_ZENOH_INSECURE=1`.
 ///
 /// # Safety
 /// `endpoint` is NUL-terminated; `tls` is NULL or points to a `LumenTls` whose strings are

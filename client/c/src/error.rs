@@ -49,6 +49,7 @@ impl Error {
             Error::HalfIdentity => LumenStatus::NullArgument,
             Error::Client(e) => match e {
                 lumen_client::Error::NoDaemon { .. } => LumenStatus::NoDaemon,
+                lumen_client::Error::Unauthenticated { .. } => LumenStatus::Transport,
                 // A limit of the daemon's, as a refused open is (the message names it).
                 lumen_client::Error::Refused(_) | lumen_client::Error::ObserversFull { .. } => LumenStatus::Refused,
                 lumen_client::Error::Timeout(_) => LumenStatus::Timeout,
