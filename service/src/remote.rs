@@ -88,12 +88,13 @@ impl Remote {
             .spawn(move || {
                 let mut sessions: Vec<JoinHandle<()>> = Vec::new();
                 while !self.registry.stopping() {
+                    // Every turn, busy or not: a thread that ended keeps its stack until its
+                    // handle goes (a daemon that only ever got requests, sessions opened and
+                    // closed back to back, grew by each one's).
+                    sessions.retain(|h| !h.is_finished());
                     let query = match queryable.recv_timeout(TICK) {
                         Ok(Some(q)) => q,
-                        Ok(None) => {
-                            sessions.retain(|h| !h.is_finished());
-                            continue;
-                        }
+                        Ok(None) => continue,
                         Err(e) => {
                             tracing::error!("zenoh control: {e}");
                             break;

@@ -202,3 +202,91 @@ fn a_frame_numbered_beyond_2_pow_53_is_answered_malformed_and_later_frames_go_on
         }
     }
 }
+
+/// A frame never outlives itself in the daemon either: a colonoscopy's session sent a frame
+/// whose colon is all zeros (a physics engine that sends its state before it wrote the colon),
+/// then genuine frames, gets for each what a fresh detector gives, bit for bit, on both
+/// transports. (`scene/tests/glitch.rs` tries every kind of glitch on the detector itself.)
+#[test]
+fn after_a_frame_of_zeros_the_daemon_answers_as_a_fresh_session() {
+    let d = daemon("pglitch", &[]);
+    let colon = lumen_scene::generate(&lumen_scene::ColonParams::seeded(1));
+    let insertion = lumen_scene::Insertion { escapes: false, ..Default::default() };
+    let states: Vec<Vec<f32>> = insertion
+        .frames(&colon, 6, 400.0, 1.0, 1)
+        .map(|f| lumen_detect::Scene::new().tube("colon", f.colon).rod("scope", f.scope).pair("scope", "colon", lumen_detect::ContactKind::Interior).state())
+        .collect();
+    let spec = {
+        let f = insertion.frame(&colon, 400.0);
+        lumen_detect::Scene::new().tube("colon", f.colon).rod("scope", f.scope).pair("scope", "colon", lumen_detect::ContactKind::Interior).spec()
+    };
+    let scene = spec.validate().unwrap();
+    let tube_floats = scene.layout().bodies[0].floats();
+    let clients = [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("glitch".into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()];
+    for client in clients {
+        let mut s = client.open_session(&spec).unwrap();
+        let mut send = |state: &[f32]| {
+            s.submit_state(state).unwrap();
+            let r = s.contacts(WAIT).unwrap();
+            assert!(r.result().is_ok(), "{:?}", r.result());
+            r.contacts().to_vec()
+        };
+        send(&states[0]);
+        let mut zeros = states[1].clone();
+        zeros[..tube_floats].fill(0.0);
+        send(&zeros);
+        for (k, state) in states.iter().enumerate().skip(1) {
+            let got = send(state);
+            let fresh = lumen_detect::Detector::new(&scene).detect(state).unwrap().to_vec();
+            assert!(lumen_e2e::same_bits(&got, &fresh), "{:?}: frame {k} after a frame of zeros: {} contacts, a fresh session {}", client.transport(), got.len(), fresh.len());
+        }
+    }
+}
+
+/// Resident memory of process `pid`, KiB (`VmRSS` of `/proc/PID/status`).
+fn rss_kib(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    status.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok()).unwrap()
+}
+
+/// Zenoh sessions opened, sent a frame and closed back to back, by four clients at once, do not
+/// keep their threads in the daemon: between the 200th and the 800th cycle it grows by less
+/// than 8 MiB (kept until an idle moment, each session's thread grew it by about 28 KiB a
+/// cycle, 16 MiB over these 600). What is left, about 6 KiB a cycle in the daemon and 4 KiB in
+/// the client (measured 2026-12-06), is not flat yet: printed, not asserted away. Over iceoryx2
+/// the control thread drops ended sessions' threads every tick.
+#[test]
+fn session_cycles_leave_no_session_threads_in_the_daemon() {
+    let d = daemon("pcycles", &[]);
+    let pid = d.process.child.id();
+    let (endpoint, prefix) = (d.endpoint(), d.prefix.clone());
+    let scene = TestScene::new(20, 8, 10);
+    for transport in ["zenoh"] {
+        let cycle = |client: &Client, k: u64| {
+            let mut s = client.open_session(&scene.spec).unwrap();
+            s.frame().unwrap().copy_from_slice(&scene.state(k));
+            s.submit().unwrap();
+            assert!(s.contacts(WAIT).unwrap().result().is_ok());
+            s.close().unwrap();
+        };
+        let run = |cycles: u64| {
+            std::thread::scope(|threads| {
+                for _ in 0..4 {
+                    threads.spawn(|| {
+                        let client = match transport {
+                            "zenoh" => Client::zenoh(&endpoint).unwrap(),
+                            _ => Client::local_with(LocalOptions { prefix: Some(prefix.clone()), name: Some("cycles".into()) }).unwrap(),
+                        };
+                        (0..cycles / 4).for_each(|k| cycle(&client, k));
+                    });
+                }
+            })
+        };
+        run(200);
+        let (before, client_before) = (rss_kib(pid), rss_kib(std::process::id()));
+        run(600);
+        let (after, client_after) = (rss_kib(pid), rss_kib(std::process::id()));
+        eprintln!("{transport}: RSS after 200 and 800 cycles: the daemon {before} and {after} KiB, this client process {client_before} and {client_after} KiB");
+        assert!(after < before + 8 * 1024, "{transport}: the daemon grew from {before} to {after} KiB over 600 session cycles");
+    }
+}
