@@ -6,6 +6,7 @@
 
 use lumen_proto::{BodySpec, PairSpec, SceneSpec};
 use serde::de::DeserializeOwned;
+use serde::Deserialize;
 use serde_json::Value;
 
 /// The fields a scene spec may have; any other is refused.
@@ -21,8 +22,9 @@ pub fn parse(value: Value) -> Result<SceneSpec, String> {
 
 /// The first part of `value` that does not parse, said with its place.
 fn locate(value: &Value) -> Option<String> {
-    let Some(object) = value.as_object() else {
-        return Some(format!("the spec must be a JSON object, not {}", kind(value)));
+    let object = match serde_json::Map::<String, Value>::deserialize(value) {
+        Ok(o) => o,
+        Err(e) => return Some(format!("the spec must be a JSON object: {e}")),
     };
     if let Some(unknown) = object.keys().find(|k| !FIELDS.contains(&k.as_str())) {
         return Some(format!("unknown field {unknown:?}; a spec has the fields {}", FIELDS.join(", ")));
@@ -32,7 +34,7 @@ fn locate(value: &Value) -> Option<String> {
             return Some(format!("missing field {required:?}"));
         }
     }
-    let list = |field: &str| object[field].as_array().ok_or_else(|| format!("{field:?} must be an array, not {}", kind(&object[field])));
+    let list = |field: &str| Vec::<Value>::deserialize(&object[field]).map_err(|e| format!("{field:?} must be an array: {e}"));
     let bodies = match list("bodies") {
         Ok(b) => b,
         Err(e) => return Some(e),
@@ -65,18 +67,6 @@ fn locate(value: &Value) -> Option<String> {
 /// Whether `value` parses as a `T`, and serde's reason if not.
 fn read<T: DeserializeOwned>(value: &Value) -> Result<(), String> {
     T::deserialize(value).map(drop).map_err(|e| e.to_string())
-}
-
-/// What kind of JSON value `value` is, for messages.
-fn kind(value: &Value) -> &'static str {
-    match value {
-        Value::Null => "null",
-        Value::Bool(_) => "a boolean",
-        Value::Number(_) => "a number",
-        Value::String(_) => "a string",
-        Value::Array(_) => "an array",
-        Value::Object(_) => "an object",
-    }
 }
 
 #[cfg(test)]
@@ -113,7 +103,7 @@ mod tests {
             ("/bodies/0/shape/tube/rings", "20".into(), "body \"colon\": invalid type: string \"20\""),
             ("/bodies/1/shape", serde_json::json!({"sphere":{"radius":1}}), "body \"scope\": unknown variant `sphere`"),
             ("/bodies/1/name", 7.into(), "body #1: invalid type: integer `7`"),
-            ("/pairs", "scope".into(), "\"pairs\" must be an array, not a string"),
+            ("/pairs", "scope".into(), "\"pairs\" must be an array: invalid type: string \"scope\", expected a sequence"),
             ("/bodies/0/shape/tube/spokes", serde_json::json!(null), "body \"colon\": invalid type: null"),
             ("/pairs/0/a", serde_json::json!(["scope"]), "pair #0 (?, \"colon\"): invalid type: sequence"),
         ];
@@ -141,6 +131,6 @@ mod tests {
         }
         base.as_object_mut().unwrap().remove("pairs");
         assert_eq!(error_of(base), "missing field \"pairs\"");
-        assert_eq!(error_of(Value::from(3)), "the spec must be a JSON object, not a number");
+        assert_eq!(error_of(Value::from(3)), "the spec must be a JSON object: invalid type: integer `3`, expected a map");
     }
 }

@@ -20,6 +20,11 @@ fn daemon(tag: &str, extra: &[&str]) -> Daemon {
     Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), extra)
 }
 
+/// A client of `d` on each transport, shown as `name`.
+fn both_clients(d: &Daemon, name: &str) -> [Client; 2] {
+    [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some(name.into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()]
+}
+
 /// One raw JSON request over iceoryx2 (request-response on `lumen/control`, then the event), as
 /// section 1 describes; the reply parsed.
 fn ask_iceoryx2(prefix: &str, json: &str) -> Value {
@@ -122,7 +127,7 @@ fn the_session_size_limit_holds_on_both_transports() {
 fn a_frame_with_reserved_flags_is_answered_malformed_and_the_session_goes_on() {
     let d = daemon("pflags", &[]);
     let scene = TestScene::new(20, 8, 10);
-    let clients = [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("flags".into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()];
+    let clients = both_clients(&d, "flags");
     for client in clients {
         let mut s = client.open_session(&scene.spec).unwrap();
         s.frame().unwrap().copy_from_slice(&scene.state(0));
@@ -183,7 +188,7 @@ fn status_json_prints_the_daemons_raw_reply() {
 fn a_frame_numbered_beyond_2_pow_53_is_answered_malformed_and_later_frames_go_on() {
     let d = daemon("pnumber", &[]);
     let scene = TestScene::new(20, 8, 10);
-    let clients = [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("number".into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()];
+    let clients = both_clients(&d, "number");
     for client in clients {
         let mut s = client.open_session(&scene.spec).unwrap();
         s.frame().unwrap().copy_from_slice(&scene.state(0));
@@ -222,7 +227,7 @@ fn after_a_frame_of_zeros_the_daemon_answers_as_a_fresh_session() {
     };
     let scene = spec.validate().unwrap();
     let tube_floats = scene.layout().bodies[0].floats();
-    let clients = [Client::local_with(LocalOptions { prefix: Some(d.prefix.clone()), name: Some("glitch".into()) }).unwrap(), Client::zenoh(&d.endpoint()).unwrap()];
+    let clients = both_clients(&d, "glitch");
     for client in clients {
         let mut s = client.open_session(&spec).unwrap();
         let mut send = |state: &[f32]| {
@@ -259,34 +264,29 @@ fn rss_kib(pid: u32) -> u64 {
 fn session_cycles_leave_no_session_threads_in_the_daemon() {
     let d = daemon("pcycles", &[]);
     let pid = d.process.child.id();
-    let (endpoint, prefix) = (d.endpoint(), d.prefix.clone());
+    let endpoint = d.endpoint();
     let scene = TestScene::new(20, 8, 10);
-    for transport in ["zenoh"] {
-        let cycle = |client: &Client, k: u64| {
-            let mut s = client.open_session(&scene.spec).unwrap();
-            s.frame().unwrap().copy_from_slice(&scene.state(k));
-            s.submit().unwrap();
-            assert!(s.contacts(WAIT).unwrap().result().is_ok());
-            s.close().unwrap();
-        };
-        let run = |cycles: u64| {
-            std::thread::scope(|threads| {
-                for _ in 0..4 {
-                    threads.spawn(|| {
-                        let client = match transport {
-                            "zenoh" => Client::zenoh(&endpoint).unwrap(),
-                            _ => Client::local_with(LocalOptions { prefix: Some(prefix.clone()), name: Some("cycles".into()) }).unwrap(),
-                        };
-                        (0..cycles / 4).for_each(|k| cycle(&client, k));
-                    });
-                }
-            })
-        };
-        run(200);
-        let (before, client_before) = (rss_kib(pid), rss_kib(std::process::id()));
-        run(600);
-        let (after, client_after) = (rss_kib(pid), rss_kib(std::process::id()));
-        eprintln!("{transport}: RSS after 200 and 800 cycles: the daemon {before} and {after} KiB, this client process {client_before} and {client_after} KiB");
-        assert!(after < before + 8 * 1024, "{transport}: the daemon grew from {before} to {after} KiB over 600 session cycles");
-    }
+    let cycle = |client: &Client, k: u64| {
+        let mut s = client.open_session(&scene.spec).unwrap();
+        s.frame().unwrap().copy_from_slice(&scene.state(k));
+        s.submit().unwrap();
+        assert!(s.contacts(WAIT).unwrap().result().is_ok());
+        s.close().unwrap();
+    };
+    let run = |cycles: u64| {
+        std::thread::scope(|threads| {
+            for _ in 0..4 {
+                threads.spawn(|| {
+                    let client = Client::zenoh(&endpoint).unwrap();
+                    (0..cycles / 4).for_each(|k| cycle(&client, k));
+                });
+            }
+        })
+    };
+    run(200);
+    let (before, client_before) = (rss_kib(pid), rss_kib(std::process::id()));
+    run(600);
+    let (after, client_after) = (rss_kib(pid), rss_kib(std::process::id()));
+    eprintln!("zenoh: RSS after 200 and 800 cycles: the daemon {before} and {after} KiB, this client process {client_before} and {client_after} KiB");
+    assert!(after < before + 8 * 1024, "the daemon grew from {before} to {after} KiB over 600 session cycles");
 }
