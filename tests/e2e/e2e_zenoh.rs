@@ -185,7 +185,8 @@ fn a_slow_raw_subscriber_does_not_slow_the_sessions() {
     });
     let (took, status) = stopped.expect("stopped");
     assert_eq!(status.map(|s| s.success()), Some(true), "the daemon's exit");
-    assert!(took < Duration::from_secs(2), "the daemon took {took:?} to stop on SIGTERM beside a slow subscriber");
+    // Under the rest of the suite it took up to 2.6 s; held by zenoh's 5 s block wait, 6 s.
+    assert!(took < Duration::from_secs(4), "the daemon took {took:?} to stop on SIGTERM beside a slow subscriber");
     // Measured 0.82 to 1.03 of alone on the development VM, whose two cores carry the daemon,
     // the client and the subscriber (0.75 with the rest of the suite running beside it); with
     // congestion control *block* it was 0.02, or replies stopped coming.
