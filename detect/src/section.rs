@@ -84,7 +84,7 @@ pub struct TubeCache {
     /// across frames to tell a ring that changed ([`TubeCache::inner_bound`]); and how near its
     /// control point its wall edges come, at least.
     seen_stamp: Vec<u32>,
-    seen_spokes: Vec<[f32; 3]>,
+    seen_rings: Vec<[f32; 3]>,
     near: Vec<f32>,
     /// Per ring: bumped each time its spokes change (0: never seen), and the version its `near`
     /// was computed from; per segment, the two rings' versions its [`Inner`] was computed from.
@@ -300,7 +300,7 @@ impl TubeCache {
             self.seen_stamp.clear();
             self.seen_stamp.resize(rings, 0);
             self.near.resize(rings, 0.0);
-            self.seen_spokes.clear();
+            self.seen_rings.clear();
             self.version.clear();
             self.version.resize(rings, 0);
             self.near_from.clear();
@@ -372,21 +372,21 @@ impl TubeCache {
     /// Ring `i`'s version: checked once a frame against the ring last seen (one compare of
     /// the ring's bytes: its control point and spokes, since what is derived from a segment
     /// reads the chord between control points too) and bumped where it changed, so what is
-    /// derived from a ring is computed again only where it changed. The colonoscopy moves a few rings a frame; most
-    /// of a frame's rings are as they were.
+    /// derived from a ring is computed again only where it changed. The colonoscopy moves a
+    /// few rings a frame; most of a frame's rings are as they were.
     #[inline]
     fn version_of(&mut self, t: &TubeView, i: usize) -> u32 {
         if self.seen_stamp[i] != self.stamp {
             let b = t.spokes + 1;
-            if self.seen_spokes.len() != self.near.len() * b {
-                self.seen_spokes.clear();
-                self.seen_spokes.resize(self.near.len() * b, [0.0; 3]);
+            if self.seen_rings.len() != self.near.len() * b {
+                self.seen_rings.clear();
+                self.seen_rings.resize(self.near.len() * b, [0.0; 3]);
                 self.version.iter_mut().for_each(|v| *v = 0);
                 self.near_from.iter_mut().for_each(|v| *v = 0);
                 self.inner_from.iter_mut().for_each(|f| *f = [0; 2]);
             }
             let now = t.ring_of(i);
-            let kept = &mut self.seen_spokes[i * b..(i + 1) * b];
+            let kept = &mut self.seen_rings[i * b..(i + 1) * b];
             if self.version[i] == 0 || !same_bits(kept, now) {
                 kept.copy_from_slice(now);
                 self.version[i] = self.version[i].wrapping_add(1).max(1);

@@ -21,6 +21,7 @@ pub const PROTOCOL_VERSION: u16 = 1;
 /// changes nothing: numbers go up from 0, and one at the top of the range would leave none
 /// above it for the frames after (over zenoh a frame must be numbered above every one before).
 pub const MAX_FRAME_NUMBER: u64 = 9_007_199_254_740_991;
+
 /// `FrameHeader::magic`: the bytes `L M N F` read as a little-endian `u32`.
 pub const FRAME_MAGIC: u32 = u32::from_le_bytes(*b"LMNF");
 /// `ContactsHeader::magic`: the bytes `L M N C` read as a little-endian `u32`.

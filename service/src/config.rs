@@ -33,6 +33,7 @@
 //! max_session_mib = 512     # shared memory one session may pin
 //! ```
 
+use lumen_transport::net::is_loopback;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -158,9 +159,6 @@ impl ZenohConfig {
 /// What a daemon open to other machines without client certificates gives up, said where it
 /// is refused and where `--insecure` starts it anyway.
 pub const INSECURE_MEANS: &str = "anyone who reaches it can open sessions up to the limit, observe a session given its id, count the sessions, and answer opens and status queries in this daemon's place (an impostor daemon feeding clients false contacts); frames and replies of a session stay tagged with its secret";
-
-/// Whether a zenoh endpoint names this machine only ([`lumen_transport::net::is_loopback`]).
-pub use lumen_transport::net::is_loopback;
 
 /// Bounds that keep the daemon's memory bounded whatever clients ask.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -291,9 +291,7 @@ impl Channels {
             None => ClientState::Present,
         }
     }
-}
 
-impl Channels {
     /// Whether the process that opened the session is gone: its node dead, or no longer listed
     /// (the control thread removes dead nodes every tick). A client killed right after it
     /// opened, before any tick saw its frame publisher, leaves nothing else behind: without

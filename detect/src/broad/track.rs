@@ -56,9 +56,10 @@ impl Walk {
     ///
     /// **History never changes the answer.** Only the first sample walks from last frame: every
     /// other starts from the sample before it, as in a session without history. And the first
-    /// sample's walk is trusted only where its section holds it: a reading outside the wall may
-    /// come from planes that bracket it far from where it is (the scope moved anywhere), so such
-    /// a sample is located afresh through the BVH, as a session without history locates it. The
+    /// sample's walk is trusted only where its section holds it: a reading outside the wall, or
+    /// past an end of the tube, may come from planes that bracket it far from where it is (the
+    /// scope moved anywhere, or a frame of nonsense came before), so such a sample is located
+    /// afresh through the BVH, as a session without history locates it. The
     /// track's sector only starts the sector walk, which ends in the same sector from any start
     /// where the section is star-shaped.
     #[inline]
@@ -94,9 +95,7 @@ impl Walk {
                 reading = Some(read);
             }
         }
-        // Past an end, as read by a walk from last frame's place: planes far from where the
-        // sample is may put it there (a scope moved anywhere, or after a frame of nonsense);
-        // a session without history locates it through the BVH, and so does this one.
+        // Past an end, read by a walk from last frame's place: not trusted (see above).
         if from_history && matches!(axial, Axial::BeforeStart | Axial::AfterEnd) {
             axial = Axial::Lost;
         }
