@@ -218,7 +218,7 @@ impl Client {
     }
 
     fn open(&self, spec: &SceneSpec, echo: bool) -> Result<Session, Error> {
-        let request = ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec.clone(), client: self.name.clone(), echo };
+        let request = ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec.clone(), client: self.name.clone(), echo, alive: String::new() };
         match &self.inner {
             Inner::Local(c) => c.open(request).map(Session::from_local),
             Inner::Zenoh(c) => c.open(request).map(Session::from_zenoh),

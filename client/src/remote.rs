@@ -26,6 +26,10 @@ pub struct ZenohClient {
     route: Route,
     /// The daemon sessions open on, by name; `None`: the least loaded at each open.
     daemon: Option<String>,
+    /// The last chunk of every session's liveliness key (the open request's `alive`), drawn
+    /// once: zenoh keeps each key a connection has seen, so one chunk for all the sessions
+    /// (and the daemon's reused ids) keeps this process and the daemon from growing per session.
+    alive: String,
 }
 
 /// Where control requests go: the daemon's endpoint (for messages) and the control key
@@ -55,7 +59,10 @@ impl ZenohClient {
         let session = zenoh::open(config)
             .wait()
             .map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {}", lumen_transport::without_source_paths(&e.to_string())) })?;
-        Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() }, daemon: None })
+        let mut chunk = [0u8; 16];
+        getrandom::fill(&mut chunk).map_err(|e| Error::zenoh("drawing the liveliness key's chunk", e.to_string()))?;
+        let alive = chunk.iter().map(|b| format!("{b:02x}")).collect();
+        Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() }, daemon: None, alive })
     }
 
     /// Opens sessions on the daemon named `name` only (see [`DaemonInfo::daemon`]), not on the
@@ -93,7 +100,10 @@ impl ZenohClient {
         Ok(reports)
     }
 
-    pub(crate) fn open(&self, request: ControlRequest) -> Result<ZenohSession, Error> {
+    pub(crate) fn open(&self, mut request: ControlRequest) -> Result<ZenohSession, Error> {
+        if let ControlRequest::Open { alive, .. } = &mut request {
+            alive.clone_from(&self.alive);
+        }
         let daemon = match &self.daemon {
             Some(name) => Some(name.clone()),
             None => least_loaded(&self.session, &self.route, crate::CONTROL_TIMEOUT)?,

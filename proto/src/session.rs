@@ -32,6 +32,12 @@ impl std::fmt::Display for Transport {
     }
 }
 
+/// Whether `s` may be an open request's `alive`: exactly 32 lowercase hex digits (128 bits
+/// drawn at random: no one else can name the key).
+pub fn is_alive_chunk(s: &str) -> bool {
+    s.len() == 32 && s.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+}
+
 /// A request on the control channel.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
@@ -48,6 +54,14 @@ pub enum ControlRequest {
         /// to measure the transport alone.
         #[serde(default)]
         echo: bool,
+        /// Zenoh only, optional: the last chunk of the session's client liveliness key
+        /// ([`is_alive_chunk`]), 32 lowercase hex digits the client drew at random and sends
+        /// with every open. Empty: the daemon derives one from the session's secret. zenoh keeps
+        /// every key it ever routed for as long as a connection lasts, so a fresh key per
+        /// session grew both sides by a few KiB per session; ids and this chunk reused keep
+        /// the keys one connection sees bounded.
+        #[serde(default, skip_serializing_if = "String::is_empty")]
+        alive: String,
     },
     /// Describe an open session (for observers): replies [`ControlReply::Described`].
     Describe { session: u64 },
@@ -253,7 +267,12 @@ mod tests {
         let json = r#"{"op":"open","version":1,"client":"sim",
             "spec":{"bodies":[{"name":"scope","shape":{"rod":{"points":3,"radius":[1.0]}}}],"pairs":[]}}"#;
         let r: ControlRequest = serde_json::from_str(json).unwrap();
-        let ControlRequest::Open { version, spec, client, echo: false } = r else { panic!("not open: {r:?}") };
+        let ControlRequest::Open { version, spec, client, echo: false, alive } = r else { panic!("not open: {r:?}") };
+        assert!(alive.is_empty(), "alive is optional");
+        assert!(is_alive_chunk("0123456789abcdef0123456789abcdef"));
+        for bad in ["", "0123456789abcdef0123456789abcde", "0123456789ABCDEF0123456789abcdef", "0123456789abcdef0123456789abcdeg", "0123456789abcdef0123456789abcdef0"] {
+            assert!(!is_alive_chunk(bad), "{bad:?}");
+        }
         assert_eq!((version, spec.bodies.len(), client.as_str()), (1, 1, "sim"));
         assert_eq!(serde_json::to_string(&ControlRequest::Status).unwrap(), r#"{"op":"status"}"#);
         let close: ControlRequest = serde_json::from_str(r#"{"op":"close","session":5,"proof":"ab"}"#).unwrap();

@@ -19,6 +19,8 @@ const CLOSE_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
 pub struct Plan {
     pub entry: Arc<Entry>,
     pub echo: bool,
+    /// Zenoh: the client liveliness key the session lives by (the opened reply's `alive`).
+    pub alive: String,
 }
 
 pub(crate) fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
@@ -100,7 +102,7 @@ pub fn handle(registry: &Registry, transport: Transport, requester: &Requester, 
             }
             None => error(ErrorCode::UnknownSession, format!("no session {session}")),
         },
-        ControlRequest::Open { version, spec, client, echo } => open(registry, transport, version, spec, client, holder, echo, start),
+        ControlRequest::Open { version, spec, client, echo, alive } => open(registry, transport, Opening { version, spec, client, holder, echo, alive }, start),
     }
 }
 
@@ -137,22 +139,26 @@ fn refuse(registry: &Registry, requester: &Requester, request: &ControlRequest) 
     }
 }
 
-#[allow(clippy::too_many_arguments)] // the request's fields, taken apart once
-fn open(
-    registry: &Registry,
-    transport: Transport,
+/// An open request's fields and who sent it.
+struct Opening {
     version: u16,
     spec: SceneSpec,
     client: String,
     holder: Option<String>,
     echo: bool,
-    start: impl FnOnce(Plan) -> Result<(), DaemonError>,
-) -> ControlReply {
+    alive: String,
+}
+
+fn open(registry: &Registry, transport: Transport, opening: Opening, start: impl FnOnce(Plan) -> Result<(), DaemonError>) -> ControlReply {
+    let Opening { version, spec, client, holder, echo, alive: chunk } = opening;
     if version != PROTOCOL_VERSION {
         return error(ErrorCode::Version, format!("client speaks protocol version {version}; this daemon speaks {PROTOCOL_VERSION}: upgrade the older side"));
     }
     if client.len() > lumen_proto::limits::MAX_NAME_BYTES {
         return error(ErrorCode::BadRequest, format!("client name of {} bytes; at most {} are allowed", client.len(), lumen_proto::limits::MAX_NAME_BYTES));
+    }
+    if !chunk.is_empty() && !lumen_proto::session::is_alive_chunk(&chunk) {
+        return error(ErrorCode::BadRequest, format!("alive {chunk:?}: 32 lowercase hex digits drawn at random are expected, or none"));
     }
     let scene = match spec.validate() {
         Ok(scene) => scene,
@@ -181,7 +187,7 @@ fn open(
     if !registry.has_room() {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions (limits.max_sessions): close one or raise the limit", limits.max_sessions));
     }
-    let id = registry.next_id();
+    let id = registry.next_id(transport, &chunk);
     let Some(secret) = new_secret() else {
         return error(ErrorCode::Internal, "the operating system gave no random bytes for the session's secret");
     };
@@ -200,12 +206,12 @@ fn open(
         max_observers: observers as u32,
         secret: String::new(),
     };
-    let alive = if transport == Transport::Zenoh { client_alive_name(id, &secret) } else { String::new() };
-    let opened = SessionInfo { secret: secret.to_hex(), alive, ..info.clone() };
-    let Some(entry) = registry.insert(info, secret, scene, client, holder) else {
+    let alive = if transport == Transport::Zenoh { client_alive_name(id, &chunk, &secret) } else { String::new() };
+    let opened = SessionInfo { secret: secret.to_hex(), alive: alive.clone(), ..info.clone() };
+    let Some(entry) = registry.insert(info, secret, scene, client, holder, chunk) else {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
     };
-    match start(Plan { entry, echo }) {
+    match start(Plan { entry, echo, alive }) {
         Ok(()) => ControlReply::Opened(opened),
         Err(e) => {
             registry.remove(id);
@@ -253,7 +259,7 @@ mod tests {
     }
 
     fn open_req(spec: SceneSpec) -> ControlRequest {
-        ControlRequest::Open { version: PROTOCOL_VERSION, spec, client: "t".into(), echo: false }
+        ControlRequest::Open { version: PROTOCOL_VERSION, spec, client: "t".into(), echo: false, alive: String::new() }
     }
 
     #[test]
@@ -288,7 +294,7 @@ mod tests {
         assert_eq!((e.code, reg.len()), (ErrorCode::Internal, 0));
         assert!(matches!(decode(b"{\"op\":\"explode\"}"), Err(ControlReply::Error(ControlError { code: ErrorCode::BadRequest, .. }))));
         // A client name beyond MAX_NAME_BYTES is refused, naming the limit.
-        let named = |client: String| ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec(10), client, echo: false };
+        let named = |client: String| ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec(10), client, echo: false, alive: String::new() };
         let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, &Requester::Anyone, named("c".repeat(129)), |_| Ok(())) else { panic!() };
         assert_eq!(e.code, ErrorCode::BadRequest);
         assert!(e.message.contains("client name of 129 bytes; at most 128"), "{}", e.message);
@@ -304,7 +310,7 @@ mod tests {
         assert_ne!(again.secret, info.secret, "each session its own secret");
         let ControlReply::Described(d) = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Describe { session: info.session }, |_| Ok(())) else { panic!() };
         assert_eq!((d.secret.as_str(), d.alive.as_str(), d.session), ("", "", info.session), "describe tells no secret, nor the key it names");
-        assert_eq!(info.alive, lumen_transport::names::client_alive_name(info.session, &secret), "the opener's liveliness key");
+        assert_eq!(info.alive, format!("lumen/session/{}/client/{}", info.session, secret.alive_chunk(info.session)), "the opener's liveliness key");
         assert!(!serde_json::to_string(&ControlReply::Described(d)).unwrap().contains("secret"));
         let other = Secret::parse(&again.secret).unwrap();
         for proof in [String::new(), "00".repeat(32), other.close_proof(info.session), secret.close_proof(again.session)] {
@@ -324,6 +330,63 @@ mod tests {
             let r = handle(&reg, Transport::Zenoh, &Requester::Anyone, ControlRequest::Close { session: info.session, proof: secret.close_proof(info.session) }, |_| Ok(()));
             assert_eq!(r, ControlReply::Closed { session: info.session });
         });
+    }
+
+    #[test]
+    fn an_open_may_name_its_liveliness_chunk() {
+        let reg = Registry::new(Limits::default());
+        let chunk = "0123456789abcdef0123456789abcdef";
+        let with = |alive: &str| ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec(10), client: "t".into(), echo: false, alive: alive.into() };
+        let mut plans = Vec::new();
+        let ControlReply::Opened(info) = handle(&reg, Transport::Zenoh, &Requester::Anyone, with(chunk), |p| {
+            plans.push(p.alive.clone());
+            Ok(())
+        }) else {
+            panic!()
+        };
+        let key = format!("lumen/session/{}/client/{chunk}", info.session);
+        assert_eq!((info.alive.as_str(), plans[0].as_str()), (key.as_str(), key.as_str()), "the reply and the session's thread name the same key");
+        // Not 32 lowercase hex digits: refused, naming the field; nothing registered.
+        for bad in ["0123456789ABCDEF0123456789abcdef", "abc", "0123456789abcdef0123456789abcdef/x"] {
+            let ControlReply::Error(e) = handle(&reg, Transport::Zenoh, &Requester::Anyone, with(bad), |_| Ok(())) else { panic!("{bad}") };
+            assert_eq!(e.code, ErrorCode::BadRequest);
+            assert!(e.message.starts_with(&format!("alive {bad:?}: 32 lowercase hex digits")), "{}", e.message);
+        }
+        assert_eq!(reg.len(), 1);
+    }
+
+    #[test]
+    fn a_zenoh_clients_ids_are_taken_again_by_it_after_they_rested_and_an_iceoryx2_ones_never() {
+        let reg = Registry::new(Limits::default());
+        let (c1, c2) = ("0123456789abcdef0123456789abcdef", "fedcba9876543210fedcba9876543210");
+        let open = |transport, alive: &str| {
+            let req = ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec(10), client: "t".into(), echo: false, alive: alive.into() };
+            match handle(&reg, transport, &Requester::Anyone, req, |_| Ok(())) {
+                ControlReply::Opened(info) => info.session,
+                other => panic!("{other:?}"),
+            }
+        };
+        let (z, i, anon) = (open(Transport::Zenoh, c1), open(Transport::Iceoryx2, c1), open(Transport::Zenoh, ""));
+        for id in [z, i, anon] {
+            reg.remove(id);
+        }
+        let soon = open(Transport::Zenoh, c1);
+        assert_ne!(soon, z, "an id that has not rested {:?} is not taken", crate::registry::ID_REST);
+        reg.age_rested(crate::registry::ID_REST);
+        let other = open(Transport::Zenoh, c2);
+        assert!(![z, i, anon, soon].contains(&other), "another client's ids are not its: a fresh one ({other})");
+        assert_eq!(open(Transport::Zenoh, c1), z, "the client's oldest rested id");
+        assert_eq!(open(Transport::Zenoh, ""), anon, "clients that give no chunk share theirs");
+        let next = open(Transport::Zenoh, c1);
+        assert!(![z, i, anon, soon, other].contains(&next), "nothing else of its has rested: a fresh id ({next})");
+        reg.remove(soon);
+        reg.age_rested(crate::registry::ID_REST);
+        assert_eq!(open(Transport::Zenoh, c1), soon);
+        assert_ne!(open(Transport::Iceoryx2, c1), i, "iceoryx2 ids are never taken again");
+        // A rested id no one took for ID_KEPT is forgotten.
+        reg.remove(next);
+        reg.age_rested(crate::registry::ID_KEPT + crate::registry::ID_REST);
+        assert_ne!(open(Transport::Zenoh, c1), next);
     }
 
     /// The code a raw request is answered with, or "ok" for one that decodes.

@@ -128,7 +128,7 @@ mod tests {
     fn engine() -> Engine {
         let reg = Registry::new(crate::config::Limits::default());
         let spec = lumen_scene::frames::spec();
-        let req = ControlRequest::Open { version: 1, spec, client: "t".into(), echo: false };
+        let req = ControlRequest::Open { version: 1, spec, client: "t".into(), echo: false, alive: String::new() };
         let mut entry = None;
         let r = crate::control::handle(&reg, Transport::Iceoryx2, &crate::access::Requester::Anyone, req, |p| {
             entry = Some(p.entry);

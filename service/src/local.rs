@@ -23,6 +23,9 @@ use std::time::{Duration, Instant};
 
 /// How often threads look at the shutdown flag, clean up dead nodes and check their client.
 pub const TICK: Duration = Duration::from_millis(100);
+/// How often a session's thread looks whether it was asked to close: a close is answered once
+/// the thread ended, so this bounds how long it takes (the tick's checks cost more).
+pub const CLOSE_CHECK: Duration = Duration::from_millis(5);
 /// How long a new session waits for its client's frame publisher before it is dropped.
 pub const CONNECT_GRACE: Duration = Duration::from_secs(5);
 
@@ -336,6 +339,7 @@ fn run_session(cfg: &Config, plan: Plan, opener: Option<UniqueNodeId>, registry:
     let waitset = WaitSetBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<Svc>().map_err(|e| iox("creating a waitset", e))?;
     let on_frame = waitset.attach_notification(&channels.listener).map_err(|e| iox("attaching", e))?;
     let on_tick = waitset.attach_interval(TICK).map_err(|e| iox("attaching", e))?;
+    let on_close_check = waitset.attach_interval(CLOSE_CHECK).map_err(|e| iox("attaching", e))?;
     let _ = ready.send(Ok(()));
     let opened = Instant::now();
     // Whether a client ever attached. Its frame publisher or a frame proves it, and so does
@@ -350,6 +354,10 @@ fn run_session(cfg: &Config, plan: Plan, opener: Option<UniqueNodeId>, registry:
             if wake.has_event_from(&on_frame) {
                 let _ = channels.listener.try_wait(|e| peer_died |= e.id == EVENT_PEER_DIED);
                 attached |= channels.serve(&mut engine);
+            }
+            if wake.has_event_from(&on_close_check) && plan.entry.close.load(std::sync::atomic::Ordering::SeqCst) {
+                why = "closed on request";
+                return CallbackProgression::Stop;
             }
             if peer_died || wake.has_event_from(&on_tick) {
                 engine.tick();

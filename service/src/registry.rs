@@ -25,6 +25,9 @@ pub struct Entry {
     pub client: String,
     /// The common name of the certificate that opened it (zenoh with client certificates).
     pub holder: Option<String>,
+    /// The open request's `alive` chunk (empty if it gave none): the client whose sessions'
+    /// ids this one's is kept for when it ends ([`Registry::next_id`]).
+    pub chunk: String,
     pub opened: Instant,
     /// Set to ask the session's thread to end.
     pub close: AtomicBool,
@@ -48,7 +51,13 @@ impl Entry {
     }
 }
 
-/// All sessions, the id counter and the shutdown flag.
+/// How long a zenoh session's id rests after its session ended before another session may
+/// take it: long enough for the old client's last messages and undeclarations to be gone.
+pub const ID_REST: Duration = Duration::from_secs(1);
+/// A rested id no open has taken for this long is forgotten (a client that left for good).
+pub const ID_KEPT: Duration = Duration::from_secs(600);
+
+/// All sessions, the id counter, the zenoh ids free to take again and the shutdown flag.
 #[derive(Debug)]
 pub struct Registry {
     pub limits: Limits,
@@ -58,6 +67,9 @@ pub struct Registry {
     /// Keys of the id hash, seeded by the OS.
     keys: RandomState,
     next: AtomicU64,
+    /// Ids of ended zenoh sessions and when each ended, oldest first, by the `alive` chunk of
+    /// the client that had them ([`Registry::next_id`]).
+    rested: Mutex<std::collections::HashMap<String, std::collections::VecDeque<(u64, Instant)>>>,
     sessions: Mutex<BTreeMap<u64, Arc<Entry>>>,
     shutdown: AtomicBool,
 }
@@ -72,7 +84,16 @@ impl Registry {
 
     /// An empty registry of the daemon called `name`.
     pub fn named(limits: Limits, name: String) -> Self {
-        Self { limits, name, started: Instant::now(), keys: RandomState::new(), next: AtomicU64::new(0), sessions: Mutex::new(BTreeMap::new()), shutdown: AtomicBool::new(false) }
+        Self {
+            limits,
+            name,
+            started: Instant::now(),
+            keys: RandomState::new(),
+            next: AtomicU64::new(0),
+            rested: Default::default(),
+            sessions: Mutex::new(BTreeMap::new()),
+            shutdown: AtomicBool::new(false),
+        }
     }
 
     /// What [`lumen_proto::session::ControlRequest::Hello`] answers: the name and the load.
@@ -80,9 +101,38 @@ impl Registry {
         DaemonInfo { daemon: self.name.clone(), pid: std::process::id(), sessions: self.len() as u32, max_sessions: self.limits.max_sessions as u32 }
     }
 
-    /// A fresh random session id: nonzero, not in use, below 2^53 (so JSON doubles hold it
-    /// exactly).
-    pub fn next_id(&self) -> u64 {
+    /// An id for a new session on `transport` for the client whose open gave `chunk` (its
+    /// `alive`, empty if none): nonzero, not in use, below 2^53 (so JSON doubles hold it
+    /// exactly). Over zenoh, the id of one of that client's sessions that ended at least
+    /// [`ID_REST`] ago when there is one: zenoh keeps every key it has routed for as long as a
+    /// connection lasts (the daemon's and each client's), so fresh keys for every session grew
+    /// both by a few KiB a session; a client's ids reused keep its keys bounded by how many
+    /// sessions it opens in [`ID_REST`]. Else, and always over iceoryx2 (whose services must be
+    /// gone before their names are taken again), a fresh random one.
+    pub fn next_id(&self, transport: Transport, chunk: &str) -> u64 {
+        if transport == Transport::Zenoh {
+            let mut rested = self.rested.lock().expect("registry lock");
+            // Clients gone for good leave nothing behind for long.
+            rested.retain(|_, ids| {
+                while ids.front().is_some_and(|(_, ended)| ended.elapsed() > ID_KEPT) {
+                    ids.pop_front();
+                }
+                !ids.is_empty()
+            });
+            if let Some(ids) = rested.get_mut(chunk) {
+                while ids.front().is_some_and(|(_, ended)| ended.elapsed() >= ID_REST) {
+                    let (id, _) = ids.pop_front().expect("a front");
+                    if self.get(id).is_none() {
+                        return id;
+                    }
+                }
+            }
+        }
+        self.fresh_id()
+    }
+
+    /// A fresh random session id, not in use.
+    fn fresh_id(&self) -> u64 {
         loop {
             let id = self.keys.hash_one(self.next.fetch_add(1, Ordering::Relaxed)) & ((1 << 53) - 1);
             if id != 0 && self.get(id).is_none() {
@@ -110,19 +160,31 @@ impl Registry {
     }
 
     /// Adds a session; `None` if the daemon is full.
-    pub fn insert(&self, info: SessionInfo, secret: Secret, scene: ValidScene, client: String, holder: Option<String>) -> Option<Arc<Entry>> {
+    pub fn insert(&self, info: SessionInfo, secret: Secret, scene: ValidScene, client: String, holder: Option<String>, chunk: String) -> Option<Arc<Entry>> {
         let mut s = self.sessions.lock().expect("registry lock");
         if s.len() >= self.limits.max_sessions {
             return None;
         }
-        let e = Arc::new(Entry { info, secret, scene, client, holder, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()), places: Places::default() });
+        let e = Arc::new(Entry { info, secret, scene, client, holder, chunk, opened: Instant::now(), close: AtomicBool::new(false), stats: Mutex::new(Stats::default()), places: Places::default() });
         s.insert(e.info.session, e.clone());
         Some(e)
     }
 
-    /// Forgets a session (its thread has ended).
+    /// Makes every resting id look `by` older (tests: no sleeping through [`ID_REST`]).
+    #[cfg(test)]
+    pub(crate) fn age_rested(&self, by: Duration) {
+        for (_, ended) in self.rested.lock().expect("registry lock").values_mut().flatten() {
+            *ended -= by;
+        }
+    }
+
+    /// Forgets a session (its thread has ended); a zenoh session's id rests, then may be taken
+    /// again ([`Registry::next_id`]).
     pub fn remove(&self, id: u64) {
-        self.sessions.lock().expect("registry lock").remove(&id);
+        let gone = self.sessions.lock().expect("registry lock").remove(&id);
+        if let Some(e) = gone.filter(|e| e.info.transport == Transport::Zenoh) {
+            self.rested.lock().expect("registry lock").entry(e.chunk.clone()).or_default().push_back((id, Instant::now()));
+        }
     }
 
     /// The session `id`, if open.
@@ -243,10 +305,10 @@ mod tests {
     #[test]
     fn a_restarted_daemon_never_reuses_ids() {
         // Two daemons started in the same instant (a kill -9 and restart) must not collide.
-        let ids: std::collections::HashSet<u64> = (0..100).map(|_| Registry::new(Limits::default()).next_id()).collect();
+        let ids: std::collections::HashSet<u64> = (0..100).map(|_| Registry::new(Limits::default()).next_id(Transport::Zenoh, "")).collect();
         assert_eq!(ids.len(), 100);
         let r = Registry::new(Limits::default());
-        let (a, b) = (r.next_id(), r.next_id());
+        let (a, b) = (r.next_id(Transport::Zenoh, ""), r.next_id(Transport::Iceoryx2, ""));
         assert_ne!(a, b);
         assert!(a < 1 << 53 && b < 1 << 53);
     }
@@ -254,7 +316,7 @@ mod tests {
     #[test]
     fn one_daemons_ids_are_random_not_consecutive() {
         let r = Registry::new(Limits::default());
-        let ids: Vec<u64> = (0..1000).map(|_| r.next_id()).collect();
+        let ids: Vec<u64> = (0..1000).map(|_| r.next_id(Transport::Iceoryx2, "")).collect();
         assert_eq!(ids.iter().collect::<std::collections::HashSet<_>>().len(), 1000, "distinct");
         assert!(ids.iter().all(|&id| id != 0 && id < 1 << 53));
         // Consecutive or nearby ids would make the next one guessable from the last. Two random

@@ -13,7 +13,7 @@ use crate::registry::Registry;
 use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{encode_contacts, FrameError, FrameHeader, CONTACTS_HEADER_BYTES, CONTACT_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::StateLayout;
-use lumen_transport::names::{client_alive_name, session_live_name};
+use lumen_transport::names::session_live_name;
 use lumen_transport::names::{daemon_alive_name, CONTROL, DAEMON_PARAMETER};
 use lumen_transport::net::{config, set, tagged_queue, CONGESTION, FRAME_QUEUE};
 use lumen_transport::TransportError;
@@ -25,7 +25,7 @@ use zenoh::bytes::ZBytes;
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
-use crate::local::{CONNECT_GRACE, TICK};
+use crate::local::{CLOSE_CHECK, CONNECT_GRACE, TICK};
 
 /// The zenoh transport of a running daemon.
 pub struct Remote {
@@ -177,7 +177,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     // The client's token is on a key only the owner can name (its last chunk comes from the
     // secret), and only a token on exactly that key counts: a stranger's token on a wildcard
     // that covers it cannot keep the session alive once its client is gone.
-    let alive_key = client_alive_name(info.session, &plan.entry.secret);
+    let alive_key = plan.alive.clone();
     let alive = z.liveliness().declare_subscriber(alive_key.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {alive_key}"), e))?;
     // Held while the session lives: observers watch it to learn that the session ended.
     let live_key = session_live_name(info.session);
@@ -192,7 +192,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     let mut connected = false;
     let mut last_tick = Instant::now();
     loop {
-        match frames.recv_timeout(TICK) {
+        match frames.recv_timeout(CLOSE_CHECK) {
             Ok(Some(sample)) => {
                 let received = Instant::now();
                 // The owner may still send anything: decoding checks every length first.
@@ -214,6 +214,9 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             Ok(None) => {}
             Err(e) => return Err(TransportError::zenoh("receiving a frame", e).into()),
         }
+        if plan.entry.close.load(std::sync::atomic::Ordering::SeqCst) {
+            return Ok("closed on request");
+        }
         if last_tick.elapsed() >= TICK {
             last_tick = Instant::now();
             engine.tick();
@@ -228,9 +231,6 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             }
             if !connected && opened.elapsed() > CONNECT_GRACE {
                 return Ok("no client attached in time");
-            }
-            if plan.entry.close.load(std::sync::atomic::Ordering::SeqCst) {
-                return Ok("closed on request");
             }
             if registry.stopping() {
                 return Ok("daemon stopping");

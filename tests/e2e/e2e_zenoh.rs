@@ -773,7 +773,7 @@ fn opens_land_on_exactly_one_of_two_daemons_behind_a_router() {
     // the daemons' control queryables are complete, so zenoh routes its query to one daemon.
     let raw = zenoh::open(lumen_transport::net::config("client", &[], std::slice::from_ref(&router_endpoint)).unwrap()).wait().unwrap();
     let scene = TestScene::new(30, 8, 16);
-    let open = serde_json::to_vec(&ControlRequest::Open { version: lumen_proto::wire::PROTOCOL_VERSION, spec: scene.spec.clone(), client: "raw".into(), echo: false }).unwrap();
+    let open = serde_json::to_vec(&ControlRequest::Open { version: lumen_proto::wire::PROTOCOL_VERSION, spec: scene.spec.clone(), client: "raw".into(), echo: false, alive: String::new() }).unwrap();
     // (Every reply counted: zenoh's default consolidation would show one of several.)
     let replies: Vec<_> = raw.get("lumen/control").consolidation(zenoh::query::ConsolidationMode::None).payload(open).timeout(WAIT).wait().unwrap().iter().collect();
     assert_eq!(replies.len(), 1, "an unnamed open is answered by exactly one daemon");

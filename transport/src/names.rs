@@ -51,10 +51,15 @@ pub fn contacts_name(id: u64) -> String {
 }
 
 /// Zenoh liveliness key the client of session `id` must hold while it lives:
-/// `lumen/session/<id>/client/<chunk>`, the last chunk derived from the session's secret
-/// ([`Secret::alive_chunk`]), so only its owner can name it.
-pub fn client_alive_name(id: u64, secret: &Secret) -> String {
-    format!("{ROOT}/session/{id}/client/{}", secret.alive_chunk(id))
+/// `lumen/session/<id>/client/<chunk>`, the last chunk the one its open request gave
+/// (`alive`, random, [`lumen_proto::session::is_alive_chunk`]) or else derived from the
+/// session's secret ([`Secret::alive_chunk`]): either way only its owner can name it.
+pub fn client_alive_name(id: u64, chunk: &str, secret: &Secret) -> String {
+    if chunk.is_empty() {
+        format!("{ROOT}/session/{id}/client/{}", secret.alive_chunk(id))
+    } else {
+        format!("{ROOT}/session/{id}/client/{chunk}")
+    }
 }
 
 /// Zenoh liveliness key the daemon holds while session `id` is open: observers watch it to
@@ -86,7 +91,8 @@ mod tests {
         assert_eq!(frame_name(42), "lumen/session/42/frame");
         assert_eq!(contacts_name(42), "lumen/session/42/contacts");
         let secret = Secret::from_bytes(std::array::from_fn(|i| i as u8));
-        assert_eq!(client_alive_name(42, &secret), "lumen/session/42/client/732caea5f9833e0b2c42100effe25326");
+        assert_eq!(client_alive_name(42, "", &secret), "lumen/session/42/client/732caea5f9833e0b2c42100effe25326");
+        assert_eq!(client_alive_name(42, "0123456789abcdef0123456789abcdef", &secret), "lumen/session/42/client/0123456789abcdef0123456789abcdef");
         assert_eq!(session_live_name(42), "lumen/session/42/live");
         assert_eq!(observe_name(42), "lumen/session/42/observe");
         assert_eq!((OBSERVER_PARAMETER, AFTER_PARAMETER, END_PARAMETER), ("observer", "after", "end"));

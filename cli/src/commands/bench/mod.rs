@@ -1,6 +1,7 @@
 //! `lumen bench ...`: one module per benchmark.
 
 pub mod ipc;
+pub mod sessions;
 
 use super::CliResult;
 use clap::Subcommand;
@@ -13,6 +14,9 @@ pub enum BenchCommand {
     Detect(Box<lumen_bench::cli::DetectArgs>),
     /// Round trip frame -> contacts over iceoryx2 and zenoh, against a bare echo.
     Ipc(ipc::IpcArgs),
+    /// Sessions opened, sent a frame and closed, over and over: the daemon's and the client's
+    /// resident memory as they go, and the cycles a second.
+    Sessions(sessions::SessionsArgs),
 }
 
 impl BenchCommand {
@@ -20,6 +24,7 @@ impl BenchCommand {
         match self {
             BenchCommand::Detect(a) => Ok(a.run().map(|_| ())?),
             BenchCommand::Ipc(a) => ipc::run(a),
+            BenchCommand::Sessions(a) => sessions::run(a),
         }
     }
 }
