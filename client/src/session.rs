@@ -11,7 +11,9 @@ use std::time::Duration;
 /// Frames are numbered from 0 in submission order; each reply names the frame it answers. If the
 /// client outruns the daemon the newest frame wins (the reply's `skipped` counts the others).
 /// If the daemon goes away, calls fail with [`Error::Disconnected`] and the session reopens by
-/// itself (new id, same spec) on a later [`Session::frame`] / [`Session::submit`].
+/// itself (a new session: new secret, same spec; a new id, except that a daemon that stayed up
+/// may give a zenoh client one of its own ended sessions' ids) on a later [`Session::frame`] /
+/// [`Session::submit`].
 pub struct Session {
     inner: Inner,
 }
@@ -29,7 +31,8 @@ impl Session {
         Self { inner: Inner::Zenoh(Box::new(s)) }
     }
 
-    /// The session id (changes when the session reopens after a daemon restart).
+    /// The session id (changes when the session reopens after a daemon restart; over zenoh a
+    /// session reopened on a daemon that stayed up may get its old id back).
     pub fn id(&self) -> u64 {
         self.info().session
     }
