@@ -363,6 +363,88 @@ fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }
 
+/// A session paced at 1 kHz for `window`, frame `n` carrying `states[n % len]`: the round
+/// trips it made a second.
+fn paced_rate(s: &mut lumen_client::Session, states: &[Vec<f32>], window: Duration) -> f64 {
+    let start = std::time::Instant::now();
+    let mut k = 0;
+    while start.elapsed() < window {
+        if let Some(wait) = (start + Duration::from_millis(k)).checked_duration_since(std::time::Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        let n = s.next_frame_number();
+        s.frame().unwrap().copy_from_slice(&states[(n % states.len() as u64) as usize]);
+        s.submit().unwrap();
+        s.contacts(WAIT).unwrap();
+        k += 1;
+    }
+    k as f64 / start.elapsed().as_secs_f64()
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// A zenoh observer of a session paced at 1 kHz sees at least 500 of its frames a second (it
+/// asks for the next frame as soon as it has one, and the daemon answers when the frame
+/// exists; asking only after the answered ask had ended capped it at about 20), and the
+/// session keeps its rate within 10% of its rate unobserved (alternated windows, medians).
+#[test]
+fn a_zenoh_observer_keeps_up_with_a_1_khz_session_without_slowing_it() {
+    let d = daemon("zobsrate");
+    let scene = TestScene::new(20, 8, 10);
+    let states: std::sync::Arc<Vec<Vec<f32>>> = std::sync::Arc::new((0..64).map(|k| scene.state(k)).collect());
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut s = client.open_session(&scene.spec).unwrap();
+    paced_rate(&mut s, &states, Duration::from_millis(300)); // warm-up
+    let id = s.id();
+    let endpoint = d.endpoint();
+    let watching = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let seen = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let (w, n, expected) = (watching.clone(), seen.clone(), states.clone());
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let halt = stop.clone();
+    let observer = std::thread::spawn(move || {
+        let watcher = Client::zenoh(&endpoint).unwrap();
+        while !halt.load(std::sync::atomic::Ordering::SeqCst) {
+            if !w.load(std::sync::atomic::Ordering::SeqCst) {
+                std::thread::sleep(Duration::from_millis(5));
+                continue;
+            }
+            let mut obs = watcher.observe(id).unwrap();
+            let mut last = None;
+            while w.load(std::sync::atomic::Ordering::SeqCst) {
+                if let Ok(Observed::Frame { header, state }) = obs.next(Duration::from_millis(200)) {
+                    assert_eq!(state, &expected[(header.frame % 64) as usize][..], "frame {}", header.frame);
+                    assert!(last.is_none_or(|l| header.frame > l), "frames go up");
+                    last = Some(header.frame);
+                    n.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                }
+            }
+        }
+    });
+    let (mut alone, mut watched, mut observed) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..3 {
+        watching.store(false, std::sync::atomic::Ordering::SeqCst);
+        std::thread::sleep(Duration::from_millis(300));
+        alone.push(paced_rate(&mut s, &states, Duration::from_secs(1)));
+        watching.store(true, std::sync::atomic::Ordering::SeqCst);
+        paced_rate(&mut s, &states, Duration::from_millis(300)); // the observer takes its place
+        let before = seen.load(std::sync::atomic::Ordering::SeqCst);
+        let start = std::time::Instant::now();
+        watched.push(paced_rate(&mut s, &states, Duration::from_secs(1)));
+        observed.push((seen.load(std::sync::atomic::Ordering::SeqCst) - before) as f64 / start.elapsed().as_secs_f64());
+    }
+    stop.store(true, std::sync::atomic::Ordering::SeqCst);
+    watching.store(false, std::sync::atomic::Ordering::SeqCst);
+    observer.join().unwrap();
+    let (alone, watched, observed) = (median(&mut alone), median(&mut watched), median(&mut observed));
+    eprintln!("1 kHz zenoh session: {alone:.0} round trips/s alone, {watched:.0} observed; the observer saw {observed:.0} frames/s");
+    assert!(observed >= 500.0, "the observer saw {observed:.0} frames a second of a {watched:.0} Hz session");
+    assert!(watched >= 0.9 * alone, "observed, the session ran at {watched:.0} round trips a second, alone {alone:.0}");
+}
+
 #[test]
 fn random_bytes_on_the_frame_key_never_hurt_the_daemon_or_other_sessions() {
     let d = daemon("zfz");
