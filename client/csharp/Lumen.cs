@@ -78,6 +78,7 @@ namespace Lumen
         [DllImport(Lib)] internal static extern Status lumen_session_open(IntPtr client, byte[] spec, UIntPtr len, out IntPtr session);
         [DllImport(Lib)] internal static extern Status lumen_session_id(IntPtr session, out ulong id);
         [DllImport(Lib)] internal static extern Status lumen_session_reconnects(IntPtr session, out ulong reconnects);
+        [DllImport(Lib)] internal static extern Status lumen_session_stale_replies(IntPtr session, out ulong stale);
         [DllImport(Lib)] internal static extern Status lumen_session_frame(IntPtr session, out IntPtr frame, out UIntPtr floats);
         [DllImport(Lib)] internal static extern Status lumen_session_submit(IntPtr session, out ulong frameNumber);
         [DllImport(Lib)] internal static extern Status lumen_session_contacts(IntPtr session, uint timeoutMs, out NativeReply reply);
@@ -230,6 +231,9 @@ namespace Lumen
 
         /// <summary>How many times the session reopened after losing the daemon.</summary>
         public ulong Reconnects { get { ulong n; Native.Check(Native.lumen_session_reconnects(Live(), out n), "lumen_session_reconnects"); return n; } }
+        /// <summary>Replies dropped because they answered a frame older than the newest
+        /// submitted (see <see cref="Receive"/>).</summary>
+        public ulong StaleReplies { get { ulong n; Native.Check(Native.lumen_session_stale_replies(Live(), out n), "lumen_session_stale_replies"); return n; } }
 
         /// <summary>Copies <paramref name="state"/> (the whole scene, proto/README.md's layout)
         /// into the frame (the shared memory the daemon reads, over iceoryx2) and sends it;
@@ -246,8 +250,10 @@ namespace Lumen
             return number;
         }
 
-        /// <summary>Waits up to <paramref name="timeoutMs"/> for the next reply (throws
-        /// Timeout when none came); its contacts go to <see cref="Contacts"/>.</summary>
+        /// <summary>Waits up to <paramref name="timeoutMs"/> for the reply to the newest frame
+        /// submitted (throws Timeout when none came); its contacts go to <see cref="Contacts"/>.
+        /// A reply to an older frame (late, after its Receive timed out) is dropped, never
+        /// returned: <see cref="StaleReplies"/> counts them.</summary>
         public Reply Receive(uint timeoutMs)
         {
             Native.NativeReply r;

@@ -146,12 +146,13 @@ pub(crate) struct LocalSession {
     pub(crate) layout: StateLayout,
     pub(crate) frame_no: u64,
     pub(crate) reconnects: u64,
+    pub(crate) awaited: crate::session::Awaited,
 }
 
 impl LocalSession {
     fn new(control: Control, request: ControlRequest, info: SessionInfo, ports: SessionPorts) -> Self {
         let layout = info.layout();
-        Self { loan: None, last: None, ports: Some(ports), retired: Vec::new(), control, request, info, layout, frame_no: 0, reconnects: 0 }
+        Self { loan: None, last: None, ports: Some(ports), retired: Vec::new(), control, request, info, layout, frame_no: 0, reconnects: 0, awaited: Default::default() }
     }
 
     /// Reopens the session after the daemon went away, if one answers now.
@@ -219,6 +220,7 @@ impl LocalSession {
         edit(&mut header);
         *sample.user_header_mut() = header;
         sample.send().map_err(|e| Error::iox("sending the frame", e))?;
+        self.awaited.sent(header.frame);
         self.ports.as_ref().expect("open").notifier.notify().map_err(|e| Error::iox("notifying the daemon", e))?;
         self.frame_no += 1;
         Ok(n)
@@ -226,7 +228,12 @@ impl LocalSession {
 
     pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
         let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
-        self.last = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))?;
+        self.last = loop {
+            match ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                Some(s) if self.awaited.stale(s.user_header().frame) => {}
+                other => break other,
+            }
+        };
         Ok(self.last.as_ref().map(|s| ContactsView { header: s.user_header(), contacts: s.payload() }))
     }
 
@@ -238,6 +245,9 @@ impl LocalSession {
         loop {
             let Some(ports) = self.ports.as_ref() else { return Err(Error::Disconnected) };
             if let Some(s) = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                if self.awaited.stale(s.user_header().frame) {
+                    continue;
+                }
                 let s = self.last.insert(s);
                 return Ok(ContactsView { header: s.user_header(), contacts: s.payload() });
             }
@@ -282,6 +292,9 @@ impl LocalSession {
             let mut died = false;
             ports.listener.try_wait(|e| died |= e.id == EVENT_PEER_DIED).map_err(|e| Error::iox("consuming contacts events", e))?;
             if let Some(s) = ports.subscriber.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                if self.awaited.stale(s.user_header().frame) {
+                    continue;
+                }
                 let s = self.last.insert(s);
                 return Ok(ContactsView { header: s.user_header(), contacts: s.payload() });
             }

@@ -269,6 +269,8 @@ pub(crate) struct ZenohSession {
     pub(crate) layout: StateLayout,
     pub(crate) frame_no: u64,
     pub(crate) reconnects: u64,
+    /// The reply awaited: to the newest frame sent (older ones' are dropped, counted).
+    pub(crate) awaited: crate::session::Awaited,
     /// The session's secret: tags frames, checks replies.
     secret: Secret,
     /// Messages on the contacts key without the daemon's tag, dropped (counted by the gate).
@@ -299,6 +301,7 @@ impl ZenohSession {
             layout,
             frame_no: 0,
             reconnects: 0,
+            awaited: Default::default(),
         })
     }
 
@@ -395,6 +398,7 @@ impl ZenohSession {
         // frames whose number does not go up).
         let tag = self.secret.message_tag(&bytes[..FRAME_HEADER_BYTES], bytes.len());
         self.channels.as_ref().expect("open").publisher.put(bytes).attachment(tag.to_vec()).wait().map_err(|e| Error::zenoh("sending the frame", e))?;
+        self.awaited.sent(header.frame);
         self.frame_no += 1;
         Ok(n)
     }
@@ -406,10 +410,13 @@ impl ZenohSession {
 
     pub(crate) fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
         let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
-        match ch.replies.try_recv() {
-            Ok(Some(s)) => self.accept(s).map(Some),
-            Ok(None) => Ok(None),
-            Err(e) => Err(Error::zenoh("receiving contacts", e)),
+        loop {
+            match ch.replies.try_recv() {
+                Ok(Some(s)) if self.awaited.stale(reply_frame(&s)) => {}
+                Ok(Some(s)) => return self.accept(s).map(Some),
+                Ok(None) => return Ok(None),
+                Err(e) => return Err(Error::zenoh("receiving contacts", e)),
+            }
         }
     }
 
@@ -419,6 +426,7 @@ impl ZenohSession {
             let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
             let left = deadline.saturating_duration_since(Instant::now());
             match ch.replies.recv_timeout(left.min(lumen_transport::shm::LIVENESS_PERIOD)) {
+                Ok(Some(s)) if self.awaited.stale(reply_frame(&s)) => continue,
                 Ok(Some(s)) => return self.accept(s),
                 Ok(None) => {}
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),
@@ -440,7 +448,13 @@ impl ZenohSession {
     pub(crate) async fn contacts_async(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
         let deadline = tokio::time::Instant::now() + timeout;
         let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
-        match tokio::time::timeout_at(deadline, ch.replies.recv_async()).await {
+        let next = loop {
+            match tokio::time::timeout_at(deadline, ch.replies.recv_async()).await {
+                Ok(Ok(s)) if self.awaited.stale(reply_frame(&s)) => {}
+                other => break other,
+            }
+        };
+        match next {
             Ok(Ok(s)) => self.accept(s),
             Ok(Err(e)) => Err(Error::zenoh("receiving contacts", e)),
             Err(_) => {
@@ -453,6 +467,22 @@ impl ZenohSession {
             }
         }
     }
+}
+
+/// The frame number a reply answers (bytes 16..24 of its header, read across zenoh's
+/// fragments); `u64::MAX` for a message too short to hold one (never stale: decoding refuses it).
+fn reply_frame(sample: &Sample) -> u64 {
+    let mut head = [0u8; 24];
+    let mut filled = 0;
+    for s in sample.payload().slices() {
+        let n = s.len().min(head.len() - filled);
+        head[filled..filled + n].copy_from_slice(&s[..n]);
+        filled += n;
+        if filled == head.len() {
+            return u64::from_le_bytes(head[16..24].try_into().expect("8 bytes"));
+        }
+    }
+    u64::MAX
 }
 
 /// An observer over zenoh: a place taken with `observe`, and one ask at a time for the

@@ -18,6 +18,31 @@ pub struct Session {
     inner: Inner,
 }
 
+/// Which reply a session waits for: the one to the newest frame it submitted. A reply to an
+/// older frame (one that came after its wait timed out) is stale: dropped and counted, so a
+/// wait never returns another frame's contacts.
+#[derive(Debug, Default)]
+pub(crate) struct Awaited {
+    /// The number of the newest frame submitted (as its header went out).
+    sent: Option<u64>,
+    /// Replies dropped as stale.
+    pub(crate) stale: u64,
+}
+
+impl Awaited {
+    /// Notes that frame `n` went out.
+    pub(crate) fn sent(&mut self, n: u64) {
+        self.sent = Some(n);
+    }
+
+    /// Whether a reply to frame `n` is stale (counted if so).
+    pub(crate) fn stale(&mut self, n: u64) -> bool {
+        let stale = self.sent.is_some_and(|s| n < s);
+        self.stale += u64::from(stale);
+        stale
+    }
+}
+
 enum Inner {
     Local(Box<LocalSession>),
     Zenoh(Box<ZenohSession>),
@@ -73,6 +98,15 @@ impl Session {
         match &self.inner {
             Inner::Local(s) => s.reconnects,
             Inner::Zenoh(s) => s.reconnects,
+        }
+    }
+
+    /// Replies dropped because they answered a frame older than the newest submitted (late
+    /// ones, after a wait for them timed out).
+    pub fn stale_replies(&self) -> u64 {
+        match &self.inner {
+            Inner::Local(s) => s.awaited.stale,
+            Inner::Zenoh(s) => s.awaited.stale,
         }
     }
 
@@ -134,7 +168,9 @@ impl Session {
         }
     }
 
-    /// The next reply, waiting up to `timeout` (blocking; no busy polling).
+    /// The reply to the newest frame submitted, waiting up to `timeout` (blocking; no busy
+    /// polling). A reply to an older frame (one that came after an earlier wait timed out) is
+    /// dropped, never returned for this one, and counted ([`Session::stale_replies`]).
     pub fn contacts(&mut self, timeout: Duration) -> Result<ContactsView<'_>, Error> {
         match &mut self.inner {
             Inner::Local(s) => s.contacts(timeout),
@@ -142,7 +178,8 @@ impl Session {
         }
     }
 
-    /// The next reply if one is there, without waiting.
+    /// The reply to the newest frame submitted if it is there, without waiting (older frames'
+    /// replies are dropped and counted, as by [`Session::contacts`]).
     pub fn try_contacts(&mut self) -> Result<Option<ContactsView<'_>>, Error> {
         match &mut self.inner {
             Inner::Local(s) => s.try_contacts(),

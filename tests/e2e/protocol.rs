@@ -238,6 +238,40 @@ fn after_a_frame_of_zeros_the_daemon_answers_as_a_fresh_session() {
     }
 }
 
+/// A wait that timed out never makes the next one return that frame's late reply: on both
+/// transports a reply is the newest frame's, and the late one is dropped and counted.
+#[test]
+fn a_reply_after_a_timed_out_wait_is_never_taken_for_the_next_frames() {
+    let d = daemon("pstale", &[]);
+    let scene = TestScene::new(20, 8, 10);
+    for client in both_clients(&d, "stale") {
+        let mut s = client.open_session(&scene.spec).unwrap();
+        s.submit_state(&scene.state(0)).unwrap();
+        assert_eq!(s.contacts(WAIT).unwrap().frame(), 0);
+        // Frame 1's wait gives up at once; its reply comes in meanwhile.
+        let one = s.submit_state(&scene.state(1)).unwrap();
+        assert!(matches!(s.contacts(Duration::ZERO), Err(lumen_client::Error::Timeout(_))));
+        std::thread::sleep(Duration::from_millis(300));
+        let two = s.submit_state(&scene.state(2)).unwrap();
+        let r = s.contacts(WAIT).unwrap();
+        assert_eq!((one, two, r.frame()), (1, 2, 2), "{:?}: the wait for frame 2 returned frame {}'s reply", client.transport(), r.frame());
+        assert!(lumen_e2e::same_bits(r.contacts(), lumen_detect::Detector::new(&scene.spec.validate().unwrap()).detect(&scene.state(2)).unwrap()));
+        assert_eq!(s.stale_replies(), 1, "{:?}", client.transport());
+        // The same through try_contacts.
+        s.submit_state(&scene.state(3)).unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        s.submit_state(&scene.state(4)).unwrap();
+        let r = (0..300).find_map(|_| {
+            let got = s.try_contacts().unwrap().map(|r| r.frame());
+            if got.is_none() {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            got
+        });
+        assert_eq!((r, s.stale_replies()), (Some(4), 2), "{:?}", client.transport());
+    }
+}
+
 /// `lumen bench sessions` against `d` with `args`: per printed line, the cycles done, the
 /// daemon's and the bench's resident memory (KiB).
 fn session_cycles(d: &Daemon, args: &[&str]) -> Vec<(u64, u64, u64)> {

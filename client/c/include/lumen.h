@@ -760,6 +760,16 @@ LumenStatus lumen_session_id(struct LumenSession *session, uint64_t *out);
 LumenStatus lumen_session_reconnects(struct LumenSession *session, uint64_t *out);
 
 /**
+ * Writes to `*out` how many replies `lumen_session_contacts` dropped because they answered a
+ * frame older than the newest submitted (late ones, after a wait for them timed out):
+ * `lumen_session_contacts` returns the newest frame's reply or none, never another frame's.
+ *
+ * # Safety
+ * `out` is NULL or writable; no call frees `session` meanwhile.
+ */
+LumenStatus lumen_session_stale_replies(struct LumenSession *session, uint64_t *out);
+
+/**
  * The frame to fill: `*frame` points to `*floats` floats in the spec's layout (every body in
  * the spec's order; tube: per ring its control point then its radial vectors, relative to it;
  * rod: its points). Over iceoryx2 it is the shared memory the daemon will read, with no copy
@@ -785,8 +795,10 @@ LumenStatus lumen_session_frame(struct LumenSession *session, float **frame, siz
 LumenStatus lumen_session_submit(struct LumenSession *session, uint64_t *frame_number);
 
 /**
- * Waits up to `timeout_ms` milliseconds for the next reply (blocking, no busy polling) and
- * puts it in `*reply`: header, contacts and count, valid until the next call on `session`.
+ * Waits up to `timeout_ms` milliseconds for the reply to the newest frame submitted
+ * (blocking, no busy polling) and puts it in `*reply`: header, contacts and count, valid until
+ * the next call on `session`. A reply to an older frame (one that came after its wait timed
+ * out) is dropped, never returned for this one (`lumen_session_stale_replies` counts them).
  * A frame the daemon could not read is still a reply: check `reply->header->status`.
  * `LUMEN_STATUS_TIMEOUT` when none came (the session still works).
  *

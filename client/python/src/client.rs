@@ -209,6 +209,13 @@ impl Session {
         Ok(self.inner(py)?.reconnects())
     }
 
+    /// Replies dropped because they answered a frame older than the newest submitted (late
+    /// ones, after a wait for them timed out): `contacts` never returns another frame's reply.
+    #[getter]
+    fn stale_replies(&mut self, py: Python<'_>) -> PyResult<u64> {
+        Ok(self.inner(py)?.stale_replies())
+    }
+
     /// The number the next submitted frame will carry.
     #[getter]
     fn next_frame(&mut self, py: Python<'_>) -> PyResult<u64> {
