@@ -128,8 +128,9 @@ enum LumenStatus
    */
   LUMEN_STATUS_WRONG_THREAD = 7,
   /**
-   * No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a TLS
-   * file missing): start `lumen serve` and try again.
+   * No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a zenoh
+   * endpoint nothing listens on or cannot be reached, a TLS file missing, or a daemon too
+   * busy to answer in time): start `lumen serve`, or try again.
    */
   LUMEN_STATUS_NO_DAEMON = 8,
   /**
@@ -159,7 +160,8 @@ enum LumenStatus
   LUMEN_STATUS_SESSION_ENDED = 13,
   /**
    * The transport failed (iceoryx2: shared memory, permissions, too many ports on a
-   * service; zenoh: an unreachable endpoint, a bad configuration); the message says which.
+   * service; zenoh: a bad configuration, a plain endpoint beyond loopback refused as
+   * unauthenticated); the message says which.
    */
   LUMEN_STATUS_TRANSPORT = 14,
   /**
@@ -697,8 +699,8 @@ LumenStatus lumen_detector_detect(struct LumenDetector *detector,
 /**
  * Starts watching session `session` (any client's, on the same transport as `client`).
  * Older frames not yet seen are skipped (the newest wins); replies come in order while the
- * observer keeps up. `LUMEN_STATUS_REFUSED` for an unknown session; `LUMEN_STATUS_TRANSPORT`
- * when the session has all the observers it allows (the message says how many).
+ * observer keeps up. `LUMEN_STATUS_REFUSED` for an unknown session, and when the session has
+ * all the observers it allows (the message says how many, code `observers_full`).
  *
  * # Safety
  * `out` is NULL or writable; no call frees `client` meanwhile.

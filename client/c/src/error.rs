@@ -95,3 +95,20 @@ impl From<InputError> for Error {
         Error::BadState(e)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statuses_are_the_ones_the_header_names() {
+        // lumen_observer_open on a session with every observer place taken: REFUSED.
+        let full = Error::from(lumen_client::Error::ObserversFull { session: 7, max: 4 });
+        assert_eq!(full.status(), LumenStatus::Refused);
+        // A zenoh endpoint nothing answers on: NO_DAEMON; a plain one beyond loopback: TRANSPORT.
+        let none = Error::from(lumen_client::Error::NoDaemon { transport: lumen_client::Transport::Zenoh, detail: "cannot connect".into() });
+        assert_eq!(none.status(), LumenStatus::NoDaemon);
+        let plain = Error::from(lumen_client::Error::Unauthenticated { endpoint: "tcp/10.0.0.2:7447".into() });
+        assert_eq!(plain.status(), LumenStatus::Transport);
+    }
+}

@@ -48,8 +48,8 @@ pub struct LumenObserved {
 
 /// Starts watching session `session` (any client's, on the same transport as `client`).
 /// Older frames not yet seen are skipped (the newest wins); replies come in order while the
-/// observer keeps up. `LUMEN_STATUS_REFUSED` for an unknown session; `LUMEN_STATUS_TRANSPORT`
-/// when the session has all the observers it allows (the message says how many).
+/// observer keeps up. `LUMEN_STATUS_REFUSED` for an unknown session, and when the session has
+/// all the observers it allows (the message says how many, code `observers_full`).
 ///
 /// # Safety
 /// `out` is NULL or writable; no call frees `client` meanwhile.

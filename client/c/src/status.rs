@@ -26,8 +26,9 @@ pub enum LumenStatus {
     /// An iceoryx2 (local) client, session or observer was called from a thread other than
     /// the one that made it: make one client per thread.
     WrongThread = 7,
-    /// No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a TLS
-    /// file missing): start `lumen serve` and try again.
+    /// No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a zenoh
+    /// endpoint nothing listens on or cannot be reached, a TLS file missing, or a daemon too
+    /// busy to answer in time): start `lumen serve`, or try again.
     NoDaemon = 8,
     /// The daemon refused the request (an invalid spec, a limit, an unknown session); the
     /// message has its words and code.
@@ -45,7 +46,8 @@ pub enum LumenStatus {
     /// The observed session ended (its client left or the daemon stopped).
     SessionEnded = 13,
     /// The transport failed (iceoryx2: shared memory, permissions, too many ports on a
-    /// service; zenoh: an unreachable endpoint, a bad configuration); the message says which.
+    /// service; zenoh: a bad configuration, a plain endpoint beyond loopback refused as
+    /// unauthenticated); the message says which.
     Transport = 14,
     /// The daemon sent something this library does not understand (a version mismatch?).
     Protocol = 15,
