@@ -118,11 +118,49 @@ namespace Lumen
         }
     }
 
+    /// <summary>A handle lumen.h made, freed exactly once by its free function: by
+    /// <c>Dispose</c>, or by the garbage collector's finalizer when it was dropped undisposed (an
+    /// exception after opening, a domain reload). Any thread may free lumen's handles, the
+    /// finalizer's included; the status of the free is kept in <see cref="Released"/>.</summary>
+    internal abstract class LumenHandle : SafeHandle
+    {
+        protected LumenHandle() : base(IntPtr.Zero, true) { }
+        public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
+        /// <summary>The status of the free function, once it ran.</summary>
+        internal Status Released = Status.Ok;
+        internal void Take(IntPtr h) { SetHandle(h); }
+        /// <summary>The pointer for a call; throws ObjectDisposedException once freed.</summary>
+        internal IntPtr Live(string what)
+        {
+            if (IsClosed || IsInvalid) throw new ObjectDisposedException(what);
+            return handle;
+        }
+        protected abstract Status Free(IntPtr h);
+        protected override bool ReleaseHandle()
+        {
+            Released = Free(handle);
+            // The C side freed the handle whatever the status (a session it could not close on
+            // the daemon is still released): never retried.
+            return true;
+        }
+        /// <summary>Frees it now on this thread; throws what the free function reported.</summary>
+        internal void Free(string what)
+        {
+            if (IsClosed || IsInvalid) return;
+            Dispose();
+            Native.Check(Released, what);
+        }
+    }
+
+    internal sealed class DetectorHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_detector_free(h); } }
+    internal sealed class ClientHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_client_free(h); } }
+    internal sealed class SessionHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_session_close(h); } }
+
     /// <summary>Embedded detection, no daemon: one scene, one state per frame, in order.
     /// One thread at a time per detector.</summary>
     public sealed class Detector : IDisposable
     {
-        IntPtr handle;
+        readonly DetectorHandle handle = new DetectorHandle();
         Contact[] contacts = new Contact[16];
 
         /// <summary>A detector for the scene spec (JSON, proto/README.md). Throws
@@ -130,9 +168,11 @@ namespace Lumen
         public Detector(string specJson)
         {
             byte[] spec = Encoding.UTF8.GetBytes(specJson);
-            Native.Check(Native.lumen_detector_new(spec, (UIntPtr)spec.Length, out handle), "lumen_detector_new");
+            IntPtr h;
+            Native.Check(Native.lumen_detector_new(spec, (UIntPtr)spec.Length, out h), "lumen_detector_new");
+            handle.Take(h);
             UIntPtr n;
-            Native.Check(Native.lumen_detector_floats(handle, out n), "lumen_detector_floats");
+            Native.Check(Native.lumen_detector_floats(h, out n), "lumen_detector_floats");
             Floats = (int)n;
         }
 
@@ -151,25 +191,20 @@ namespace Lumen
         /// the array is reused by the next frame.</summary>
         public Contact[] Contacts { get { return contacts; } }
 
-        IntPtr Live()
-        {
-            if (handle == IntPtr.Zero) throw new ObjectDisposedException("Detector");
-            return handle;
-        }
+        IntPtr Live() { return handle.Live("Detector"); }
 
-        public void Dispose()
-        {
-            if (handle != IntPtr.Zero) Native.lumen_detector_free(handle);
-            handle = IntPtr.Zero;
-        }
+        /// <summary>Frees the detector (idempotent; a dropped one is freed by its finalizer).</summary>
+        public void Dispose() { handle.Free("lumen_detector_free"); }
     }
 
     /// <summary>A connection to the daemon (<c>lumen serve</c>). A local (iceoryx2) client and
-    /// its sessions belong to the thread that made it (Unity: the main thread).</summary>
+    /// its sessions send frames from the thread that made it (Unity: the main thread; other
+    /// threads get WrongThread), but any thread may Dispose them, the finalizer's included.
+    /// A zenoh client and its sessions may be used from any thread, one call at a time.</summary>
     public sealed class Client : IDisposable
     {
-        IntPtr handle;
-        Client(IntPtr h) { handle = h; }
+        readonly ClientHandle handle = new ClientHandle();
+        Client(IntPtr h) { handle.Take(h); }
 
         /// <summary>The daemon on this machine, over shared memory; <paramref name="prefix"/>
         /// must be the daemon's <c>--prefix</c> (null: LUMEN_IOX2_PREFIX, else the default).</summary>
@@ -192,18 +227,15 @@ namespace Lumen
         /// (<see cref="Status.Refused"/> names what is wrong).</summary>
         public Session Open(string specJson)
         {
-            if (handle == IntPtr.Zero) throw new ObjectDisposedException("Client");
             byte[] spec = Encoding.UTF8.GetBytes(specJson);
             IntPtr s;
-            Native.Check(Native.lumen_session_open(handle, spec, (UIntPtr)spec.Length, out s), "lumen_session_open");
+            Native.Check(Native.lumen_session_open(handle.Live("Client"), spec, (UIntPtr)spec.Length, out s), "lumen_session_open");
             return new Session(s);
         }
 
-        public void Dispose()
-        {
-            if (handle != IntPtr.Zero) Native.lumen_client_free(handle);
-            handle = IntPtr.Zero;
-        }
+        /// <summary>Frees the client (its sessions stay open; idempotent; a dropped client is
+        /// freed by its finalizer).</summary>
+        public void Dispose() { handle.Free("lumen_client_free"); }
     }
 
     /// <summary>One reply of the daemon: the header's fields and the contacts, copied.</summary>
@@ -222,9 +254,9 @@ namespace Lumen
     /// session reopens by itself on a later Submit.</summary>
     public sealed class Session : IDisposable
     {
-        IntPtr handle;
+        readonly SessionHandle handle = new SessionHandle();
         Contact[] contacts = new Contact[16];
-        internal Session(IntPtr h) { handle = h; }
+        internal Session(IntPtr h) { handle.Take(h); }
 
         /// <summary>The session id (changes when the session reopens).</summary>
         public ulong Id { get { ulong id; Native.Check(Native.lumen_session_id(Live(), out id), "lumen_session_id"); return id; } }
@@ -246,7 +278,7 @@ namespace Lumen
                 throw new LumenException(Status.BadState, string.Format("state has {0} floats; the session's layout needs {1}", state.Length, (int)floats));
             Marshal.Copy(state, 0, frame, state.Length);
             ulong number;
-            Native.Check(Native.lumen_session_submit(handle, out number), "lumen_session_submit");
+            Native.Check(Native.lumen_session_submit(Live(), out number), "lumen_session_submit");
             return number;
         }
 
@@ -282,19 +314,12 @@ namespace Lumen
         /// <summary>The last reply's contacts (its <c>Count</c> first ones); reused by the next.</summary>
         public Contact[] Contacts { get { return contacts; } }
 
-        IntPtr Live()
-        {
-            if (handle == IntPtr.Zero) throw new ObjectDisposedException("Session");
-            return handle;
-        }
+        IntPtr Live() { return handle.Live("Session"); }
 
-        /// <summary>Closes the session on the daemon (waits for its answer).</summary>
-        public void Dispose()
-        {
-            if (handle == IntPtr.Zero) return;
-            IntPtr h = handle;
-            handle = IntPtr.Zero;
-            Native.Check(Native.lumen_session_close(h), "lumen_session_close");
-        }
+        /// <summary>Closes the session on the daemon (waits for its answer). Idempotent, and
+        /// safe from any thread (OnDestroy, a Task): the handle is freed whatever happens, and
+        /// a failure to reach the daemon is thrown once. A session dropped without Dispose is
+        /// closed by its finalizer.</summary>
+        public void Dispose() { handle.Free("lumen_session_close"); }
     }
 }

@@ -143,14 +143,28 @@ const CSHARP: &[&str] = &[
     "ok",
 ];
 
+/// The C# lines of a run that also drops `n` sessions without Dispose and disposes 32 on
+/// another thread (against a daemon of 16 sessions at most: every open past the 16th needs the
+/// earlier ones closed).
+fn csharp_with_lifetimes(n: usize) -> Vec<String> {
+    let mut lines: Vec<String> = CSHARP[..CSHARP.len() - 1].iter().map(|l| l.to_string()).collect();
+    lines.extend([format!("finalized: {n} sessions"), "disposed elsewhere: 32 sessions".into(), "ok".into()]);
+    lines
+}
+
 #[test]
 fn the_csharp_wrapper_detects_and_round_trips_over_iceoryx2() {
+    // iceoryx2 sessions cost some 0.1 s each to open in a debug build: 100 dropped.
     let daemon = Daemon::start(Path::new(LUMEN), &unique_prefix("cs_iox"), None, &[]);
-    expect(&run_csharp(&["local", &daemon.prefix]), CSHARP);
+    let lines = csharp_with_lifetimes(100);
+    expect(&run_csharp(&["local", &daemon.prefix, "100"]), &lines.iter().map(String::as_str).collect::<Vec<_>>());
+    let status = lumen_client::Client::local_with(lumen_client::LocalOptions { prefix: Some(daemon.prefix.clone()), name: None }).unwrap().status().unwrap();
+    assert!(status.sessions.is_empty(), "sessions left: {:?}", status.sessions);
 }
 
 #[test]
 fn the_csharp_wrapper_round_trips_over_zenoh() {
     let daemon = Daemon::start(Path::new(LUMEN), &unique_prefix("cs_zenoh"), Some(free_port()), &[]);
-    expect(&run_csharp(&["zenoh", &daemon.endpoint()]), CSHARP);
+    let lines = csharp_with_lifetimes(1000);
+    expect(&run_csharp(&["zenoh", &daemon.endpoint(), "1000"]), &lines.iter().map(String::as_str).collect::<Vec<_>>());
 }

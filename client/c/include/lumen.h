@@ -301,8 +301,11 @@ typedef uint16_t LumenFrameStatus;
  * freed by `lumen_client_free`. Sessions and observers it opens live on after it is freed.
  *
  * Threading: a local (iceoryx2) client, its sessions and its observers belong to the thread
- * that made the client (`LUMEN_STATUS_WRONG_THREAD` elsewhere): make one client per thread.
- * Zenoh ones may be used from any thread, one call at a time per handle.
+ * that made the client: any other thread's call gets `LUMEN_STATUS_WRONG_THREAD`, except the
+ * calls that end them (`lumen_session_close`, `lumen_observer_free`, `lumen_client_free`),
+ * which any thread may make (a finalizer, `OnDestroy`, another task). Make one client per
+ * thread that sends frames. Zenoh ones may be used from any thread, one call at a time per
+ * handle.
  */
 typedef struct LumenClient LumenClient;
 
@@ -634,7 +637,9 @@ LumenStatus lumen_client_zenoh(const char *endpoint,
                                struct LumenClient **out);
 
 /**
- * Frees a client (its sessions and observers stay open). NULL is a no-op.
+ * Frees a client (its sessions and observers stay open). NULL is a no-op. Any thread may free
+ * it: a local client freed off its own thread is dropped by that thread at its next call into
+ * Lumen.
  *
  * # Safety
  * No call on `client` runs meanwhile.
@@ -722,7 +727,9 @@ LumenStatus lumen_observer_next(struct LumenObserver *observer,
                                 struct LumenObserved *seen);
 
 /**
- * Stops watching and frees the observer. NULL is a no-op.
+ * Stops watching and frees the observer. NULL is a no-op. Any thread may free it: a local
+ * (iceoryx2) observer freed off its own thread is dropped by that thread at its next call into
+ * Lumen, and keeps its place on the session until then.
  *
  * # Safety
  * No call on `observer` runs meanwhile, and none follows.
@@ -814,7 +821,9 @@ LumenStatus lumen_session_contacts(struct LumenSession *session,
 /**
  * Ends the session: asks the daemon to free it, waits for the answer, and frees the handle
  * (whatever the status; a session the daemon no longer has counts as closed). NULL is a
- * no-op.
+ * no-op. Any thread may close it: a local (iceoryx2) session closed off its own thread is
+ * closed on the daemon through a client of the calling thread (its proof, from its open), and
+ * its own thread drops what is left of it at its next call into Lumen.
  *
  * # Safety
  * No call on `session` runs meanwhile, and none follows.

@@ -17,6 +17,8 @@ thread_local! {
 
 /// Runs `body`, catching a panic; an error's text is kept for [`lumen_last_error`].
 pub(crate) fn call(body: impl FnOnce() -> Result<(), Error>) -> LumenStatus {
+    // Local objects another thread freed are dropped here, on their own thread.
+    let _ = catch_unwind(crate::handles::drop_orphans);
     match catch_unwind(AssertUnwindSafe(body)) {
         Ok(Ok(())) => LumenStatus::Ok,
         Ok(Err(e)) => fail(e),

@@ -15,11 +15,17 @@ use std::ptr;
 /// freed by `lumen_client_free`. Sessions and observers it opens live on after it is freed.
 ///
 /// Threading: a local (iceoryx2) client, its sessions and its observers belong to the thread
-/// that made the client (`LUMEN_STATUS_WRONG_THREAD` elsewhere): make one client per thread.
-/// Zenoh ones may be used from any thread, one call at a time per handle.
+/// that made the client: any other thread's call gets `LUMEN_STATUS_WRONG_THREAD`, except the
+/// calls that end them (`lumen_session_close`, `lumen_observer_free`, `lumen_client_free`),
+/// which any thread may make (a finalizer, `OnDestroy`, another task). Make one client per
+/// thread that sends frames. Zenoh ones may be used from any thread, one call at a time per
+/// handle.
 pub struct LumenClient {
     pub(crate) client: Client,
     pub(crate) owner: Owner,
+    /// A local client's iceoryx2 prefix as given (`None`: the environment's, or the default):
+    /// a session closed from another thread is closed through a client of that thread.
+    pub(crate) prefix: Option<String>,
 }
 
 /// A zenoh client's TLS material: paths of PEM files, NUL-terminated.
@@ -53,8 +59,8 @@ pub unsafe extern "C" fn lumen_client_local(prefix: *const c_char, name: *const 
         *out = ptr::null_mut();
         let prefix = unsafe { text::optional(prefix, "prefix") }?.map(str::to_owned);
         let name = unsafe { text::optional(name, "name") }?.map(str::to_owned);
-        let client = Client::local_with(LocalOptions { prefix, name })?;
-        *out = handles::register(LumenClient { client, owner: Owner::new(true) }, Kind::Client);
+        let client = Client::local_with(LocalOptions { prefix: prefix.clone(), name })?;
+        *out = handles::register(LumenClient { client, owner: Owner::new(true), prefix }, Kind::Client);
         Ok(())
     })
 }
@@ -96,12 +102,14 @@ pub unsafe extern "C" fn lumen_client_zenoh(endpoint: *const c_char, tls: *const
             Some(n) => client.with_name(n),
             None => client,
         };
-        *out = handles::register(LumenClient { client, owner: Owner::new(false) }, Kind::Client);
+        *out = handles::register(LumenClient { client, owner: Owner::new(false), prefix: None }, Kind::Client);
         Ok(())
     })
 }
 
-/// Frees a client (its sessions and observers stay open). NULL is a no-op.
+/// Frees a client (its sessions and observers stay open). NULL is a no-op. Any thread may free
+/// it: a local client freed off its own thread is dropped by that thread at its next call into
+/// Lumen.
 ///
 /// # Safety
 /// No call on `client` runs meanwhile.
@@ -113,7 +121,12 @@ pub unsafe extern "C" fn lumen_client_free(client: *mut LumenClient) -> LumenSta
     call(|| {
         // SAFETY: no call on it runs meanwhile (the caller's contract).
         let c = unsafe { handles::get(client, Kind::Client, "client") }?;
-        c.owner.check("client")?;
-        unsafe { handles::release(client, Kind::Client, "client") }.map(drop)
+        let elsewhere = c.owner.elsewhere();
+        let c = unsafe { handles::release(client, Kind::Client, "client") }?;
+        match elsewhere {
+            Some(thread) => handles::adopt(thread, c),
+            None => drop(c),
+        }
+        Ok(())
     })
 }

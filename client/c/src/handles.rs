@@ -4,6 +4,7 @@
 
 use crate::error::Error;
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::thread::ThreadId;
 
@@ -85,9 +86,56 @@ impl Owner {
 
     /// `Ok` on the owning thread (or any, for zenoh objects).
     pub(crate) fn check(self, name: &'static str) -> Result<(), Error> {
-        match self.0 {
-            Some(id) if id != std::thread::current().id() => Err(Error::WrongThread(name)),
-            _ => Ok(()),
+        match self.elsewhere() {
+            Some(_) => Err(Error::WrongThread(name)),
+            None => Ok(()),
         }
     }
+
+    /// The owning thread when it is not the calling one (`None`: here, or a zenoh object).
+    pub(crate) fn elsewhere(self) -> Option<ThreadId> {
+        self.0.filter(|id| *id != std::thread::current().id())
+    }
+}
+
+/// A local object freed from another thread than its own, waiting for its thread: iceoryx2's
+/// objects may be dropped only there.
+struct Orphan {
+    thread: ThreadId,
+    /// Held only to be dropped on `thread`.
+    _object: Box<dyn std::any::Any>,
+}
+
+// SAFETY: an orphan's object is only moved (never used or dropped) off its own thread: it is
+// dropped by `drop_orphans` on the thread `thread` names.
+unsafe impl Send for Orphan {}
+
+/// Orphans of every thread, and how many there are (read without the lock on every call).
+static ORPHANS: Mutex<Vec<Orphan>> = Mutex::new(Vec::new());
+static ORPHAN_COUNT: AtomicUsize = AtomicUsize::new(0);
+
+/// Keeps `object`, freed on this thread but belonging to `thread`, until `thread` makes its
+/// next call into Lumen, which drops it there ([`drop_orphans`]). If that thread never calls
+/// again, the object stays until the process ends (its memory only: what it held on the daemon
+/// was closed by whoever freed it).
+pub(crate) fn adopt<T: 'static>(thread: ThreadId, object: Box<T>) {
+    let mut orphans = ORPHANS.lock().unwrap_or_else(PoisonError::into_inner);
+    orphans.push(Orphan { thread, _object: object });
+    ORPHAN_COUNT.store(orphans.len(), Ordering::SeqCst);
+}
+
+/// Drops the orphans of the calling thread (at the start of every call).
+pub(crate) fn drop_orphans() {
+    if ORPHAN_COUNT.load(Ordering::SeqCst) == 0 {
+        return;
+    }
+    let here = std::thread::current().id();
+    let mine: Vec<Orphan> = {
+        let mut orphans = ORPHANS.lock().unwrap_or_else(PoisonError::into_inner);
+        let (mine, others) = std::mem::take(&mut *orphans).into_iter().partition(|o| o.thread == here);
+        *orphans = others;
+        ORPHAN_COUNT.store(orphans.len(), Ordering::SeqCst);
+        mine
+    };
+    drop(mine);
 }

@@ -95,7 +95,9 @@ pub unsafe extern "C" fn lumen_observer_next(observer: *mut LumenObserver, timeo
     })
 }
 
-/// Stops watching and frees the observer. NULL is a no-op.
+/// Stops watching and frees the observer. NULL is a no-op. Any thread may free it: a local
+/// (iceoryx2) observer freed off its own thread is dropped by that thread at its next call into
+/// Lumen, and keeps its place on the session until then.
 ///
 /// # Safety
 /// No call on `observer` runs meanwhile, and none follows.
@@ -107,7 +109,12 @@ pub unsafe extern "C" fn lumen_observer_free(observer: *mut LumenObserver) -> Lu
     call(|| {
         // SAFETY: the caller's contract.
         let o = unsafe { handles::get(observer, Kind::Observer, "observer") }?;
-        o.owner.check("observer")?;
-        unsafe { handles::release(observer, Kind::Observer, "observer") }.map(drop)
+        let elsewhere = o.owner.elsewhere();
+        let o = unsafe { handles::release(observer, Kind::Observer, "observer") }?;
+        match elsewhere {
+            Some(thread) => handles::adopt(thread, o),
+            None => drop(o),
+        }
+        Ok(())
     })
 }

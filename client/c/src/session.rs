@@ -21,6 +21,8 @@ use std::time::Duration;
 pub struct LumenSession {
     session: Session,
     owner: Owner,
+    /// Its client's iceoryx2 prefix ([`LumenClient::prefix`]).
+    prefix: Option<String>,
 }
 
 /// One reply of the daemon, borrowed from the session or observer that received it: valid
@@ -74,7 +76,7 @@ pub unsafe extern "C" fn lumen_session_open(client: *mut LumenClient, spec_json:
         client.owner.check("client")?;
         let spec = unsafe { text::spec(spec_json, len) }?;
         let session = client.client.open_session(&spec)?;
-        *out = handles::register(LumenSession { session, owner: client.owner }, Kind::Session);
+        *out = handles::register(LumenSession { session, owner: client.owner, prefix: client.prefix.clone() }, Kind::Session);
         Ok(())
     })
 }
@@ -191,7 +193,9 @@ pub unsafe extern "C" fn lumen_session_contacts(session: *mut LumenSession, time
 
 /// Ends the session: asks the daemon to free it, waits for the answer, and frees the handle
 /// (whatever the status; a session the daemon no longer has counts as closed). NULL is a
-/// no-op.
+/// no-op. Any thread may close it: a local (iceoryx2) session closed off its own thread is
+/// closed on the daemon through a client of the calling thread (its proof, from its open), and
+/// its own thread drops what is left of it at its next call into Lumen.
 ///
 /// # Safety
 /// No call on `session` runs meanwhile, and none follows.
@@ -202,8 +206,21 @@ pub unsafe extern "C" fn lumen_session_close(session: *mut LumenSession) -> Lume
     }
     call(|| {
         // SAFETY: the caller's contract.
-        unsafe { live(session) }?;
+        let s = unsafe { handles::get(session, Kind::Session, "session") }?;
+        let Some(thread) = s.owner.elsewhere() else {
+            let s = unsafe { handles::release(session, Kind::Session, "session") }?;
+            return Ok(s.session.close()?);
+        };
+        // Plain data read off the owner's thread; nothing of iceoryx2's is touched here.
+        let (request, id, prefix) = (s.session.close_request(), s.session.id(), s.prefix.clone());
         let s = unsafe { handles::release(session, Kind::Session, "session") }?;
-        Ok(s.session.close()?)
+        handles::adopt(thread, s);
+        let here = lumen_client::Client::local_with(lumen_client::LocalOptions { prefix, name: Some("lumen-close".into()) })?;
+        match here.request(&request) {
+            Ok(lumen_proto::session::ControlReply::Closed { .. }) => Ok(()),
+            Err(lumen_client::Error::Refused(e)) if e.code == lumen_proto::session::ErrorCode::UnknownSession => Ok(()),
+            Ok(other) => Err(Error::Client(lumen_client::Error::Protocol(format!("closing session {id}: the daemon answered {other:?}")))),
+            Err(e) => Err(e.into()),
+        }
     })
 }

@@ -3,9 +3,11 @@
 // (`local PREFIX` or `zenoh ENDPOINT`), a session through it. Exits non-zero on any mismatch.
 // Built and run by tests/e2e/csharp_client.rs:
 //   mcs -out:LumenTest.exe client/csharp/Lumen.cs client/csharp/tests/LumenTest.cs
-//   LD_LIBRARY_PATH=target/debug mono LumenTest.exe [local PREFIX | zenoh ENDPOINT]
+//   LD_LIBRARY_PATH=target/debug mono LumenTest.exe [local PREFIX | zenoh ENDPOINT] [SESSIONS]
+// (SESSIONS: that many sessions dropped without Dispose, then 32 disposed on another thread.)
 using System;
 using System.Runtime.InteropServices;
+using System.Threading;
 using Lumen;
 
 static class LumenTest
@@ -112,13 +114,57 @@ static class LumenTest
         return bad;
     }
 
+    /// Opens a session, drops it without Dispose and lets it go.
+    static void OpenAndDrop(Client client)
+    {
+        client.Open(Spec).Submit(State(8.5));
+    }
+
+    /// Sessions nobody disposes are closed by their finalizers, and Dispose on another thread
+    /// closes a session: `count` sessions dropped (finalizers run every 8) and 32 disposed from
+    /// a thread of their own, against a daemon that serves at most 16 at once: past the 16th,
+    /// an open succeeds only if the earlier sessions were closed.
+    static int Lifetimes(Client client, int count)
+    {
+        int bad = 0;
+        try
+        {
+            for (int k = 0; k < count; k++)
+            {
+                OpenAndDrop(client);
+                if (k % 8 == 7) { GC.Collect(); GC.WaitForPendingFinalizers(); }
+            }
+            Console.WriteLine("finalized: {0} sessions", count);
+        }
+        catch (LumenException e) { Console.Error.WriteLine("finalizers: {0}", e.Message); bad++; }
+        try
+        {
+            for (int k = 0; k < 32; k++)
+            {
+                var s = client.Open(Spec);
+                Exception thrown = null;
+                var t = new Thread(() => { try { s.Dispose(); s.Dispose(); } catch (Exception e) { thrown = e; } });
+                t.Start();
+                t.Join();
+                if (thrown != null) { Console.Error.WriteLine("Dispose on another thread: {0}", thrown.Message); bad++; break; }
+                try { s.Submit(State(8.5)); bad++; } catch (ObjectDisposedException) { }
+            }
+            Console.WriteLine("disposed elsewhere: 32 sessions");
+        }
+        catch (LumenException e) { Console.Error.WriteLine("Dispose on another thread: {0}", e.Message); bad++; }
+        return bad;
+    }
+
     static int Main(string[] args)
     {
         int bad = Layout() + Embedded();
-        if (args.Length == 2)
+        if (args.Length >= 2)
         {
             using (Client client = args[0] == "local" ? Client.Local(args[1], "LumenTest.cs") : Client.Zenoh(args[1], "LumenTest.cs"))
+            {
                 bad += Daemon(client);
+                if (args.Length == 3) bad += Lifetimes(client, int.Parse(args[2]));
+            }
         }
         if (bad > 0) { Console.Error.WriteLine("{0} mismatches", bad); return 1; }
         Console.WriteLine("ok");
