@@ -168,3 +168,46 @@ fn the_csharp_wrapper_round_trips_over_zenoh() {
     let lines = csharp_with_lifetimes(1000);
     expect(&run_csharp(&["zenoh", &daemon.endpoint(), "1000"]), &lines.iter().map(String::as_str).collect::<Vec<_>>());
 }
+
+/// The Unity package: `client/unity/build.sh` lays it out with the debug library and checks it
+/// (files, the library's functions); its package.json and assembly definitions parse and name
+/// each other; `Runtime/Lumen.cs` is `client/csharp/Lumen.cs`; and the runtime and the sample,
+/// compiled with Mono against a stand-in of the UnityEngine types they use, run the sample as
+/// Unity would for 1,000 frames against a daemon, every reply checked against the closed form.
+#[test]
+fn the_unity_package_builds_and_its_sample_runs_1000_frames_against_a_daemon() {
+    let unity = Path::new(env!("CARGO_MANIFEST_DIR")).join("../client/unity");
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("unity/org.lumen.client");
+    let so = lumen_c_library("liblumen_c.so");
+    let built = Command::new("bash").arg(unity.join("build.sh")).args(["--out", out.to_str().unwrap(), "--lib", so.to_str().unwrap()]).output().unwrap();
+    assert!(built.status.success(), "build.sh failed:\n{}{}", String::from_utf8_lossy(&built.stdout), String::from_utf8_lossy(&built.stderr));
+    let json = |p: &str| -> serde_json::Value { serde_json::from_str(&std::fs::read_to_string(out.join(p)).unwrap()).unwrap_or_else(|e| panic!("{p}: {e}")) };
+    let package = json("package.json");
+    assert_eq!(package["name"], "org.lumen.client");
+    let sample = package["samples"][0]["path"].as_str().unwrap();
+    assert!(out.join(sample).join("ScopeContacts.cs").is_file(), "the sample's path {sample}");
+    let (runtime, samples) = (json("Runtime/Lumen.Runtime.asmdef"), json("Samples~/ScopeContacts/Lumen.Samples.asmdef"));
+    assert_eq!(samples["references"][0], runtime["name"], "the sample's assembly references the runtime's");
+    let wrapper = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../client/csharp/Lumen.cs")).unwrap();
+    assert_eq!(std::fs::read(out.join("Runtime/Lumen.cs")).unwrap(), wrapper, "Runtime/Lumen.cs is client/csharp/Lumen.cs");
+    let meta = std::fs::read_to_string(out.join("Runtime/Plugins/x86_64/liblumen_c.so.meta")).unwrap();
+    assert!(meta.contains("Standalone: Linux64") && meta.contains("OS: Linux"), "the plugin is enabled for Linux");
+    let stripped = std::fs::metadata(out.join("Runtime/Plugins/x86_64/liblumen_c.so")).unwrap().len();
+    assert!(stripped < std::fs::metadata(&so).unwrap().len(), "the library is stripped");
+
+    let exe = Path::new(env!("CARGO_TARGET_TMPDIR")).join("SampleRunner.exe");
+    let compiled = Command::new("mcs")
+        .arg(format!("-out:{}", exe.display()))
+        .arg("-warnaserror")
+        .arg(out.join("Runtime/Lumen.cs"))
+        .arg(out.join("Samples~/ScopeContacts/ScopeContacts.cs"))
+        .arg(unity.join("tests/UnityEngine.cs"))
+        .arg(unity.join("tests/SampleRunner.cs"))
+        .output()
+        .expect("running mcs (apt-get install mono-mcs mono-runtime)");
+    assert!(compiled.status.success(), "mcs failed:\n{}{}", String::from_utf8_lossy(&compiled.stdout), String::from_utf8_lossy(&compiled.stderr));
+    let daemon = Daemon::start(Path::new(LUMEN), &unique_prefix("unity"), None, &[]);
+    let run = Command::new("mono").arg(&exe).args(["local", &daemon.prefix, "1000"]).env("LD_LIBRARY_PATH", out.join("Runtime/Plugins/x86_64")).output().expect("running mono");
+    let stdout = expect(&run, &["sample: 1000 frames answered", "ok"]);
+    eprintln!("{stdout}");
+}
