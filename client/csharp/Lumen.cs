@@ -83,6 +83,50 @@ namespace Lumen
         [DllImport(Lib)] internal static extern Status lumen_session_submit(IntPtr session, out ulong frameNumber);
         [DllImport(Lib)] internal static extern Status lumen_session_contacts(IntPtr session, uint timeoutMs, out NativeReply reply);
         [DllImport(Lib)] internal static extern Status lumen_session_close(IntPtr session);
+        [DllImport(Lib)] internal static extern Status lumen_observer_open(IntPtr client, ulong session, out IntPtr observer);
+        [DllImport(Lib)] internal static extern Status lumen_observer_next(IntPtr observer, uint timeoutMs, out NativeObserved seen);
+        [DllImport(Lib)] internal static extern Status lumen_observer_free(IntPtr observer);
+
+        [StructLayout(LayoutKind.Sequential)]
+        internal struct NativeObserved { public int Kind; public IntPtr Frame; public IntPtr State; public UIntPtr Floats; public NativeReply Reply; }
+
+        [StructLayout(LayoutKind.Sequential)]
+        internal struct NativeTls { public IntPtr RootCa; public IntPtr Certificate; public IntPtr PrivateKey; }
+
+        /// <summary>A copy of <paramref name="s"/> as UTF-8 with a NUL in unmanaged memory
+        /// (IntPtr.Zero for null); free it with Marshal.FreeHGlobal.</summary>
+        internal static IntPtr Unmanaged(string s)
+        {
+            if (s == null) return IntPtr.Zero;
+            byte[] bytes = CString(s);
+            IntPtr p = Marshal.AllocHGlobal(bytes.Length);
+            Marshal.Copy(bytes, 0, p, bytes.Length);
+            return p;
+        }
+
+        /// <summary>A reply's header fields and its contacts (copied into <paramref name="contacts"/>).</summary>
+        internal static Reply ReadReply(NativeReply r, ref Contact[] contacts)
+        {
+            var reply = new Reply
+            {
+                Frame = (ulong)Marshal.ReadInt64(r.Header, 16),
+                Status = (FrameStatus)(ushort)Marshal.ReadInt16(r.Header, 6),
+                DetectNs = (uint)Marshal.ReadInt32(r.Header, 32),
+                Skipped = (uint)Marshal.ReadInt32(r.Header, 40),
+                ErrorBody = (uint)Marshal.ReadInt32(r.Header, 44),
+                ErrorIndex = (uint)Marshal.ReadInt32(r.Header, 48),
+                ErrorSpoke = (uint)Marshal.ReadInt32(r.Header, 52),
+            };
+            if (reply.Status != FrameStatus.Ok)
+            {
+                int len = (ushort)Marshal.ReadInt16(r.Header, 56);
+                var text = new byte[len];
+                Marshal.Copy(new IntPtr(r.Header.ToInt64() + 60), text, 0, len);
+                reply.Message = Encoding.UTF8.GetString(text);
+            }
+            reply.Count = CopyContacts(r.Contacts, (ulong)r.Count, ref contacts);
+            return reply;
+        }
 
         [StructLayout(LayoutKind.Sequential)]
         internal struct NativeReply { public IntPtr Header; public IntPtr Contacts; public UIntPtr Count; }
@@ -155,6 +199,7 @@ namespace Lumen
     internal sealed class DetectorHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_detector_free(h); } }
     internal sealed class ClientHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_client_free(h); } }
     internal sealed class SessionHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_session_close(h); } }
+    internal sealed class ObserverHandle : LumenHandle { protected override Status Free(IntPtr h) { return Native.lumen_observer_free(h); } }
 
     /// <summary>Embedded detection, no daemon: one scene, one state per frame, in order.
     /// One thread at a time per detector.</summary>
@@ -221,6 +266,40 @@ namespace Lumen
             IntPtr h;
             Native.Check(Native.lumen_client_zenoh(Native.CString(endpoint), IntPtr.Zero, Native.CString(name), out h), "lumen_client_zenoh");
             return new Client(h);
+        }
+
+        /// <summary>The daemon at a <c>tls/HOST:PORT</c> zenoh endpoint, authenticated by the lab's
+        /// certificate authority <paramref name="rootCa"/> (PEM); with <paramref name="certificate"/>
+        /// and <paramref name="privateKey"/> (PEM) for a daemon that requires client certificates
+        /// (its access policy knows this client by the certificate's common name).</summary>
+        public static Client ZenohTls(string endpoint, string rootCa, string certificate = null, string privateKey = null, string name = null)
+        {
+            var tls = new Native.NativeTls { RootCa = Native.Unmanaged(rootCa), Certificate = Native.Unmanaged(certificate), PrivateKey = Native.Unmanaged(privateKey) };
+            IntPtr t = Marshal.AllocHGlobal(Marshal.SizeOf(typeof(Native.NativeTls)));
+            try
+            {
+                Marshal.StructureToPtr(tls, t, false);
+                IntPtr h;
+                Native.Check(Native.lumen_client_zenoh(Native.CString(endpoint), t, Native.CString(name), out h), "lumen_client_zenoh");
+                return new Client(h);
+            }
+            finally
+            {
+                Marshal.FreeHGlobal(t);
+                Marshal.FreeHGlobal(tls.RootCa);
+                Marshal.FreeHGlobal(tls.Certificate);
+                Marshal.FreeHGlobal(tls.PrivateKey);
+            }
+        }
+
+        /// <summary>Watches session <paramref name="sessionId"/> (any client's, on this client's
+        /// transport): its newest frames and the daemon's replies (a VR front-end, a recorder).
+        /// Refused (code observers_full) when the session has all the observers it allows.</summary>
+        public Observer Observe(ulong sessionId)
+        {
+            IntPtr o;
+            Native.Check(Native.lumen_observer_open(handle.Live("Client"), sessionId, out o), "lumen_observer_open");
+            return new Observer(o);
         }
 
         /// <summary>Opens a session for the scene spec (JSON); the daemon validates it
@@ -290,25 +369,7 @@ namespace Lumen
         {
             Native.NativeReply r;
             Native.Check(Native.lumen_session_contacts(Live(), timeoutMs, out r), "lumen_session_contacts");
-            var reply = new Reply
-            {
-                Frame = (ulong)Marshal.ReadInt64(r.Header, 16),
-                Status = (FrameStatus)(ushort)Marshal.ReadInt16(r.Header, 6),
-                DetectNs = (uint)Marshal.ReadInt32(r.Header, 32),
-                Skipped = (uint)Marshal.ReadInt32(r.Header, 40),
-                ErrorBody = (uint)Marshal.ReadInt32(r.Header, 44),
-                ErrorIndex = (uint)Marshal.ReadInt32(r.Header, 48),
-                ErrorSpoke = (uint)Marshal.ReadInt32(r.Header, 52),
-            };
-            if (reply.Status != FrameStatus.Ok)
-            {
-                int len = (ushort)Marshal.ReadInt16(r.Header, 56);
-                var text = new byte[len];
-                Marshal.Copy(new IntPtr(r.Header.ToInt64() + 60), text, 0, len);
-                reply.Message = Encoding.UTF8.GetString(text);
-            }
-            reply.Count = Native.CopyContacts(r.Contacts, (ulong)r.Count, ref contacts);
-            return reply;
+            return Native.ReadReply(r, ref contacts);
         }
 
         /// <summary>The last reply's contacts (its <c>Count</c> first ones); reused by the next.</summary>
@@ -321,5 +382,49 @@ namespace Lumen
         /// a failure to reach the daemon is thrown once. A session dropped without Dispose is
         /// closed by its finalizer.</summary>
         public void Dispose() { handle.Free("lumen_session_close"); }
+    }
+
+    /// <summary>What <see cref="Observer.Next"/> saw.</summary>
+    public enum ObservedKind { Frame = 1, Contacts = 2 }
+
+    /// <summary>A watcher of one session: its newest frame as soon as it exists (older ones not
+    /// yet seen are skipped) and the daemon's replies while it keeps up; it never slows the
+    /// session. Dispose gives its place back (a dropped one is freed by its finalizer).</summary>
+    public sealed class Observer : IDisposable
+    {
+        readonly ObserverHandle handle = new ObserverHandle();
+        float[] state = new float[0];
+        Contact[] contacts = new Contact[16];
+        internal Observer(IntPtr h) { handle.Take(h); }
+
+        /// <summary>Waits up to <paramref name="timeoutMs"/> for the next frame or reply: a frame
+        /// fills <see cref="FrameNumber"/> and <see cref="State"/>, a reply <see cref="Reply"/>
+        /// and <see cref="Contacts"/>. Throws Timeout when nothing came, SessionEnded once the
+        /// session is gone.</summary>
+        public ObservedKind Next(uint timeoutMs)
+        {
+            Native.NativeObserved seen;
+            Native.Check(Native.lumen_observer_next(handle.Live("Observer"), timeoutMs, out seen), "lumen_observer_next");
+            if (seen.Kind == (int)ObservedKind.Frame)
+            {
+                FrameNumber = (ulong)Marshal.ReadInt64(seen.Frame, 16);
+                int n = (int)seen.Floats;
+                if (state.Length != n) state = new float[n];
+                Marshal.Copy(seen.State, state, 0, n);
+                return ObservedKind.Frame;
+            }
+            Reply = Native.ReadReply(seen.Reply, ref contacts);
+            return ObservedKind.Contacts;
+        }
+
+        /// <summary>The last frame's number and state (the spec's layout; reused by the next).</summary>
+        public ulong FrameNumber { get; private set; }
+        public float[] State { get { return state; } }
+        /// <summary>The last reply, and its contacts (its <c>Count</c> first ones; reused by the next).</summary>
+        public Reply Reply { get; private set; }
+        public Contact[] Contacts { get { return contacts; } }
+
+        /// <summary>Stops watching (idempotent; any thread).</summary>
+        public void Dispose() { handle.Free("lumen_observer_free"); }
     }
 }

@@ -139,6 +139,7 @@ const CSHARP: &[&str] = &[
     "empty spec: BadSpec",
     "bad frame: NonFinite body 1 index 1: body \"scope\": control point 1 has a non-finite coordinate (NaN)",
     "daemon: 20 frames checked",
+    "observer: the newest frame and its reply",
     "refused: Refused",
     "ok",
 ];
@@ -167,6 +168,33 @@ fn the_csharp_wrapper_round_trips_over_zenoh() {
     let daemon = Daemon::start(Path::new(LUMEN), &unique_prefix("cs_zenoh"), Some(free_port()), &[]);
     let lines = csharp_with_lifetimes(1000);
     expect(&run_csharp(&["zenoh", &daemon.endpoint(), "1000"]), &lines.iter().map(String::as_str).collect::<Vec<_>>());
+}
+
+/// The C# wrapper over TLS with a client certificate (`Client.ZenohTls`): certificates from
+/// `lumen certs`, a daemon that requires client certificates, the same session checks.
+#[test]
+fn the_csharp_wrapper_round_trips_over_zenoh_tls_with_a_client_certificate() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cs-certs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let certs = Command::new(LUMEN).arg("certs").arg("--out").arg(&dir).args(["--server", "localhost", "--client", "csharp"]).output().unwrap();
+    assert!(certs.status.success(), "{}", String::from_utf8_lossy(&certs.stderr));
+    let p = |f: &str| dir.join(f).display().to_string();
+    let port = free_port();
+    let endpoint = format!("tls/localhost:{port}");
+    let _d = Daemon::start(
+        Path::new(LUMEN),
+        &unique_prefix("cs_tls"),
+        None,
+        &["--zenoh-listen", &format!("tls/127.0.0.1:{port}"), "--zenoh-tls-cert", &p("server.pem"), "--zenoh-tls-key", &p("server.key"), "--zenoh-client-ca", &p("ca.pem")],
+    );
+    // Ready once a Rust client with the same certificate is answered.
+    let tls = lumen_client::Tls { root_ca: dir.join("ca.pem"), identity: Some((dir.join("csharp.pem"), dir.join("csharp.key"))) };
+    assert!((0..50).any(|_| lumen_client::Client::zenoh_with_tls(&endpoint, &tls).and_then(|c| c.status()).is_ok() || {
+        std::thread::sleep(Duration::from_millis(100));
+        false
+    }));
+    expect(&run_csharp(&["tls", &endpoint, &p("ca.pem"), &p("csharp.pem"), &p("csharp.key")]), CSHARP);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The Unity package: `client/unity/build.sh` lays it out with the debug library and checks it

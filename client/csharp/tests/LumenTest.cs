@@ -3,7 +3,7 @@
 // (`local PREFIX` or `zenoh ENDPOINT`), a session through it. Exits non-zero on any mismatch.
 // Built and run by tests/e2e/csharp_client.rs:
 //   mcs -out:LumenTest.exe client/csharp/Lumen.cs client/csharp/tests/LumenTest.cs
-//   LD_LIBRARY_PATH=target/debug mono LumenTest.exe [local PREFIX | zenoh ENDPOINT] [SESSIONS]
+//   LD_LIBRARY_PATH=target/debug mono LumenTest.exe [local PREFIX | zenoh ENDPOINT [SESSIONS] | tls ENDPOINT CA CERT KEY]
 // (SESSIONS: that many sessions dropped without Dispose, then 32 disposed on another thread.)
 using System;
 using System.Runtime.InteropServices;
@@ -108,9 +108,42 @@ static class LumenTest
             Console.WriteLine("bad frame: {0} body {1} index {2}: {3}", r.Status, r.ErrorBody, r.ErrorIndex, r.Message);
             bad += r.Status == FrameStatus.NonFinite && r.ErrorBody == 1 && r.ErrorIndex == 1 && r.Count == 0 ? 0 : 1;
             Console.WriteLine("daemon: 20 frames checked");
+            bad += Observed(client, session);
         }
         try { client.Open("{\"bodies\":[],\"pairs\":[]}"); bad++; }
         catch (LumenException e) { Console.WriteLine("refused: {0}", e.Status); bad += e.Status == Status.Refused ? 0 : 1; }
+        return bad;
+    }
+
+    /// An observer of `session` sees its newest frame and the reply to it, bit for bit.
+    static int Observed(Client client, Session session)
+    {
+        int bad = 0;
+        using (var observer = client.Observe(session.Id))
+        {
+            float[] state = State(8.5);
+            ulong last = 0;
+            bool frame = false, reply = false;
+            for (int k = 0; k < 200 && !(frame && reply); k++)
+            {
+                // Frames keep coming while the observer takes its place; the last one counts.
+                if (!frame) { last = session.Submit(state); session.Receive(2000); }
+                ObservedKind kind;
+                try { kind = observer.Next(50); } catch (LumenException e) when (e.Status == Status.Timeout) { continue; }
+                if (kind == ObservedKind.Frame && observer.FrameNumber == last)
+                {
+                    frame = true;
+                    for (int i = 0; i < state.Length; i++) if (observer.State[i] != state[i]) { bad++; break; }
+                }
+                if (kind == ObservedKind.Contacts && frame && observer.Reply.Frame == last)
+                {
+                    reply = true;
+                    bad += Check(observer.Contacts, observer.Reply.Count, 8.5);
+                }
+            }
+            bad += frame && reply ? 0 : 1;
+            Console.WriteLine("observer: {0}", frame && reply ? "the newest frame and its reply" : "missed them");
+        }
         return bad;
     }
 
@@ -160,10 +193,12 @@ static class LumenTest
         int bad = Layout() + Embedded();
         if (args.Length >= 2)
         {
-            using (Client client = args[0] == "local" ? Client.Local(args[1], "LumenTest.cs") : Client.Zenoh(args[1], "LumenTest.cs"))
+            using (Client client = args[0] == "local" ? Client.Local(args[1], "LumenTest.cs")
+                : args[0] == "tls" ? Client.ZenohTls(args[1], args[2], args[3], args[4], "LumenTest.cs")
+                : Client.Zenoh(args[1], "LumenTest.cs"))
             {
                 bad += Daemon(client);
-                if (args.Length == 3) bad += Lifetimes(client, int.Parse(args[2]));
+                if (args.Length == 3 && args[0] != "tls") bad += Lifetimes(client, int.Parse(args[2]));
             }
         }
         if (bad > 0) { Console.Error.WriteLine("{0} mismatches", bad); return 1; }
