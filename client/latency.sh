@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Round-trip latency of the three clients on one daemon, one scene (the straight tube of
+# Round-trip latency of the clients on one daemon, one scene (the straight tube of
 # client/c/examples/straight_tube_scene.h, 25 contacts a frame), each transport: the Rust client
-# (client/c/examples/latency.rs), the C client (latency.c, over liblumen_c.a) and the Python
-# package (client/python/examples/latency.py), alternated round by round in one run. Prints
+# (client/c/examples/latency.rs), the C client (latency.c, over liblumen_c.a), the C# wrapper
+# (client/csharp/examples/Latency.cs under Mono, over liblumen_c.so) and the Python package
+# (client/python/examples/latency.py), alternated round by round in one run. Prints
 # each round, then per client the median over rounds of its p50 and p99, and the difference to
 # Rust. Release builds throughout.
 #
@@ -14,11 +15,17 @@ frames=${2:-2000}
 work=$(mktemp -d)
 prefix="latency$$_"
 port=$((20000 + $$ % 20000))
-cargo build --release -q -p lumen-cli --bin lumen -p lumen-c --example latency
+cargo build --release -q -p lumen-cli --bin lumen -p lumen-c --example latency --lib
 cc -std=c11 -O2 -Iclient/c/include client/c/examples/latency.c target/release/deps/liblumen_c.a \
     -lgcc_s -lutil -lrt -lpthread -lm -ldl -lc -o "$work/latency_c"
 python=${PYTHON:-python3}
 clients=(rust c)
+if command -v mcs >/dev/null && command -v mono >/dev/null; then
+    mcs -out:"$work/Latency.exe" client/csharp/Lumen.cs client/csharp/examples/Latency.cs
+    clients+=(csharp)
+else
+    echo "csharp: Mono's mcs and mono are not installed (apt-get install mono-mcs mono-runtime); skipped" >&2
+fi
 if "$python" -c "import lumen" 2>/dev/null; then
     clients+=(python)
 else
@@ -32,6 +39,7 @@ run() { # client transport target
     case $1 in
         rust) target/release/examples/latency "$2" "$3" "$frames" ;;
         c) "$work/latency_c" "$2" "$3" "$frames" ;;
+        csharp) LD_LIBRARY_PATH=target/release mono "$work/Latency.exe" "$2" "$3" "$frames" ;;
         python) "$python" client/python/examples/latency.py "$2" "$3" "$frames" ;;
     esac
 }

@@ -197,6 +197,22 @@ fn the_csharp_wrapper_round_trips_over_zenoh_tls_with_a_client_certificate() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `client/csharp/examples/Latency.cs` (what `client/latency.sh` runs for C#) compiles and
+/// times 50 frames on each transport, every reply with the straight tube's 25 contacts.
+#[test]
+fn the_csharp_latency_example_runs() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../client/csharp");
+    let exe = Path::new(env!("CARGO_TARGET_TMPDIR")).join("Latency.exe");
+    let built = Command::new("mcs").arg(format!("-out:{}", exe.display())).arg("-warnaserror").arg(dir.join("Lumen.cs")).arg(dir.join("examples/Latency.cs")).output().expect("running mcs");
+    assert!(built.status.success(), "mcs failed:\n{}{}", String::from_utf8_lossy(&built.stdout), String::from_utf8_lossy(&built.stderr));
+    let so = lumen_c_library("liblumen_c.so");
+    let daemon = Daemon::start(Path::new(LUMEN), &unique_prefix("cs_latency"), Some(free_port()), &[]);
+    for (transport, target) in [("local", daemon.prefix.clone()), ("zenoh", daemon.endpoint())] {
+        let run = Command::new("mono").arg(&exe).args([transport, &target, "50"]).env("LD_LIBRARY_PATH", so.parent().unwrap()).output().expect("running mono");
+        expect(&run, &["csharp: p50 "]);
+    }
+}
+
 /// The Unity package: `client/unity/build.sh` lays it out with the debug library and checks it
 /// (files, the library's functions); its package.json and assembly definitions parse and name
 /// each other; `Runtime/Lumen.cs` is `client/csharp/Lumen.cs`; and the runtime and the sample,
