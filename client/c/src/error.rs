@@ -16,6 +16,8 @@ pub enum Error {
     BadJson(serde_json::Error),
     /// The scene spec does not validate.
     BadSpec(SpecError),
+    /// A spec's length that counts its terminating NUL (`strlen + 1`, `sizeof` a literal).
+    TrailingNul { len: usize },
     /// The frame's state cannot be used.
     BadState(InputError),
     /// The detector panicked in an earlier call; its buffers may be half-written.
@@ -40,7 +42,7 @@ impl Error {
         match self {
             Error::NullArgument(_) => LumenStatus::NullArgument,
             Error::BadUtf8(_) => LumenStatus::BadUtf8,
-            Error::BadJson(_) | Error::BadSpec(_) => LumenStatus::BadSpec,
+            Error::BadJson(_) | Error::BadSpec(_) | Error::TrailingNul { .. } => LumenStatus::BadSpec,
             Error::BadState(_) => LumenStatus::BadState,
             Error::Poisoned | Error::Panic(_) => LumenStatus::Panic,
             Error::BadHandle { .. } => LumenStatus::BadHandle,
@@ -70,6 +72,7 @@ impl fmt::Display for Error {
             Error::BadUtf8(e) => write!(f, "scene spec is not UTF-8: {e}"),
             Error::BadJson(e) => write!(f, "scene spec is not a valid scene JSON: {e}"),
             Error::BadSpec(e) => write!(f, "scene spec: {e}"),
+            Error::TrailingNul { len } => write!(f, "scene spec: {len} bytes given, the last a NUL: give the JSON's length without its NUL (strlen, not strlen + 1 or sizeof)"),
             Error::BadState(e) => write!(f, "state: {e}"),
             Error::Poisoned => write!(f, "this detector panicked in an earlier call and cannot be used again: free it and make another"),
             Error::Panic(message) => write!(f, "internal error (a caught panic; please report it): {message}"),
@@ -110,5 +113,11 @@ mod tests {
         assert_eq!(none.status(), LumenStatus::NoDaemon);
         let plain = Error::from(lumen_client::Error::Unauthenticated { endpoint: "tcp/10.0.0.2:7447".into() });
         assert_eq!(plain.status(), LumenStatus::Transport);
+        // A spec whose length counts its NUL: BAD_SPEC, saying so.
+        let json = "{\"bodies\":[{\"name\":\"r\",\"shape\":{\"rod\":{\"points\":2,\"radius\":[1.0]}}}],\"pairs\":[]}\0";
+        let e = unsafe { crate::text::spec(json.as_ptr().cast(), json.len()) }.unwrap_err();
+        assert_eq!(e.status(), LumenStatus::BadSpec);
+        assert!(e.to_string().contains("the last a NUL: give the JSON's length without its NUL"), "{e}");
+        assert!(unsafe { crate::text::spec(json.as_ptr().cast(), json.len() - 1) }.is_ok());
     }
 }

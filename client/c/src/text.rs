@@ -37,5 +37,9 @@ pub(crate) unsafe fn spec(ptr: *const c_char, len: usize) -> Result<SceneSpec, E
     // SAFETY: `len` readable bytes (the caller's contract).
     let bytes = unsafe { std::slice::from_raw_parts(ptr.cast::<u8>(), len) };
     let text = std::str::from_utf8(bytes).map_err(Error::BadUtf8)?;
-    serde_json::from_str(text).map_err(Error::BadJson)
+    serde_json::from_str(text).map_err(|e| match text.strip_suffix('\0') {
+        // `strlen + 1`, or `sizeof` of a string literal: the NUL is not part of the JSON.
+        Some(json) if serde_json::from_str::<SceneSpec>(json).is_ok() => Error::TrailingNul { len },
+        _ => Error::BadJson(e),
+    })
 }
