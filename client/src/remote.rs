@@ -130,6 +130,7 @@ impl ZenohClient {
             after: None,
             reply: None,
             ended,
+            gone: false,
             info,
             frame_header: FrameHeader::default(),
             state: Vec::new(),
@@ -504,6 +505,8 @@ pub(crate) struct ZenohObserver {
     /// Liveliness of the daemon's token for the session and of the daemon: a `Delete` ends the
     /// session.
     ended: [Subscriber<FifoChannelHandler<Sample>>; 2],
+    /// Whether one of them said so already.
+    gone: bool,
     pub(crate) info: SessionInfo,
     frame_header: FrameHeader,
     state: Vec<f32>,
@@ -520,6 +523,9 @@ impl ZenohObserver {
         if let Some(bytes) = self.reply.take() {
             self.header = decode_contacts(&bytes, &mut self.contacts).map_err(|e| Error::Protocol(e.to_string()))?;
             return Ok(Observed::Contacts(ContactsView { header: &self.header, contacts: &self.contacts }));
+        }
+        if self.gone {
+            return Err(Error::SessionEnded(self.info.session));
         }
         let deadline = Instant::now() + timeout;
         loop {
@@ -542,7 +548,9 @@ impl ZenohObserver {
                             std::thread::sleep(left.min(LIVENESS_PERIOD));
                         }
                     }
-                    if self.ended.iter().any(|w| std::iter::from_fn(|| w.try_recv().ok().flatten()).any(|s| s.kind() == SampleKind::Delete)) {
+                    // Once ended, ended for good: every later call says so (as over iceoryx2).
+                    self.gone |= self.ended.iter().any(|w| std::iter::from_fn(|| w.try_recv().ok().flatten()).any(|s| s.kind() == SampleKind::Delete));
+                    if self.gone {
                         return Err(Error::SessionEnded(self.info.session));
                     }
                     if left <= LIVENESS_PERIOD {

@@ -359,6 +359,9 @@ fn zenoh_round_trip_matches_the_in_process_detector_and_observers_see_it() {
         }
     };
     assert!(matches!(end, lumen_client::Error::SessionEnded(x) if x == id), "{end}");
+    // And for good, as over iceoryx2: not a timeout on the next call.
+    let again = obs.next(Duration::from_millis(100)).map(|_| ()).unwrap_err();
+    assert!(matches!(again, lumen_client::Error::SessionEnded(x) if x == id), "{again}");
     assert!(lumen_e2e::eventually(WAIT, || client.status().map(|s| s.sessions.is_empty()).unwrap_or(false)));
     assert_eq!(d.terminate().map(|s| s.success()), Some(true));
 }
