@@ -154,10 +154,11 @@ static class LumenTest
     }
 
     /// Sessions nobody disposes are closed by their finalizers, and Dispose on another thread
-    /// closes a session: `count` sessions dropped (finalizers run every 8) and 32 disposed from
+    /// closes a session (a frame from that thread is WrongThread for a local session, taken for
+    /// a zenoh one): `count` sessions dropped (finalizers run every 8) and 32 disposed from
     /// a thread of their own, against a daemon that serves at most 16 at once: past the 16th,
     /// an open succeeds only if the earlier sessions were closed.
-    static int Lifetimes(Client client, int count)
+    static int Lifetimes(Client client, int count, bool local)
     {
         int bad = 0;
         try
@@ -176,10 +177,17 @@ static class LumenTest
             {
                 var s = client.Open(Spec);
                 Exception thrown = null;
-                var t = new Thread(() => { try { s.Dispose(); s.Dispose(); } catch (Exception e) { thrown = e; } });
+                Status? submitted = null;
+                var t = new Thread(() =>
+                {
+                    // A frame from another thread: a local session says WrongThread, a zenoh one takes it.
+                    try { s.Submit(State(8.5)); submitted = Status.Ok; } catch (LumenException e) { submitted = e.Status; }
+                    try { s.Dispose(); s.Dispose(); } catch (Exception e) { thrown = e; }
+                });
                 t.Start();
                 t.Join();
                 if (thrown != null) { Console.Error.WriteLine("Dispose on another thread: {0}", thrown.Message); bad++; break; }
+                if (submitted != (local ? Status.WrongThread : Status.Ok)) { Console.Error.WriteLine("a frame from another thread: {0}", submitted); bad++; break; }
                 try { s.Submit(State(8.5)); bad++; } catch (ObjectDisposedException) { }
             }
             Console.WriteLine("disposed elsewhere: 32 sessions");
@@ -198,7 +206,7 @@ static class LumenTest
                 : Client.Zenoh(args[1], "LumenTest.cs"))
             {
                 bad += Daemon(client);
-                if (args.Length == 3 && args[0] != "tls") bad += Lifetimes(client, int.Parse(args[2]));
+                if (args.Length == 3 && args[0] != "tls") bad += Lifetimes(client, int.Parse(args[2]), args[0] == "local");
             }
         }
         if (bad > 0) { Console.Error.WriteLine("{0} mismatches", bad); return 1; }
