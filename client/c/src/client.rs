@@ -120,13 +120,6 @@ pub unsafe extern "C" fn lumen_client_free(client: *mut LumenClient) -> LumenSta
     }
     call(|| {
         // SAFETY: no call on it runs meanwhile (the caller's contract).
-        let c = unsafe { handles::get(client, Kind::Client, "client") }?;
-        let elsewhere = c.owner.elsewhere();
-        let c = unsafe { handles::release(client, Kind::Client, "client") }?;
-        match elsewhere {
-            Some(thread) => handles::adopt(thread, c),
-            None => drop(c),
-        }
-        Ok(())
+        unsafe { handles::free_anywhere(client, Kind::Client, "client", |c| c.owner) }
     })
 }

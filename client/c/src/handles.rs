@@ -74,6 +74,22 @@ pub(crate) unsafe fn release<T>(ptr: *mut T, kind: Kind, name: &'static str) -> 
     }
 }
 
+/// Unregisters a live handle of `kind` and drops its object: here, or, for a local object of
+/// another thread (`owner` of it), on that thread at its next call ([`adopt`]).
+///
+/// # Safety
+/// As [`get`].
+pub(crate) unsafe fn free_anywhere<T: 'static>(ptr: *mut T, kind: Kind, name: &'static str, owner: impl Fn(&T) -> Owner) -> Result<(), Error> {
+    // SAFETY: forwarded.
+    let elsewhere = owner(unsafe { get(ptr, kind, name) }?).elsewhere();
+    let object = unsafe { release(ptr, kind, name) }?;
+    match elsewhere {
+        Some(thread) => adopt(thread, object),
+        None => drop(object),
+    }
+    Ok(())
+}
+
 /// The thread an iceoryx2 object belongs to; `None` for zenoh ones, which any thread may use.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Owner(Option<ThreadId>);

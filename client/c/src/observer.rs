@@ -108,13 +108,6 @@ pub unsafe extern "C" fn lumen_observer_free(observer: *mut LumenObserver) -> Lu
     }
     call(|| {
         // SAFETY: the caller's contract.
-        let o = unsafe { handles::get(observer, Kind::Observer, "observer") }?;
-        let elsewhere = o.owner.elsewhere();
-        let o = unsafe { handles::release(observer, Kind::Observer, "observer") }?;
-        match elsewhere {
-            Some(thread) => handles::adopt(thread, o),
-            None => drop(o),
-        }
-        Ok(())
+        unsafe { handles::free_anywhere(observer, Kind::Observer, "observer", |o| o.owner) }
     })
 }
