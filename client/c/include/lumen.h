@@ -124,7 +124,8 @@ enum LumenStatus
   LUMEN_STATUS_BAD_HANDLE = 6,
   /**
    * An iceoryx2 (local) client, session or observer was called from a thread other than
-   * the one that made it: make one client per thread.
+   * the one that made it (make one client per thread), or a detector while another thread's
+   * call on it ran (one thread at a time per detector). Nothing was done.
    */
   LUMEN_STATUS_WRONG_THREAD = 7,
   /**
@@ -315,7 +316,9 @@ typedef struct LumenClient LumenClient;
  * frames of one simulation in order.
  *
  * Threading: one thread at a time may call a detector (it may move between threads between
- * calls); distinct detectors share nothing and may run on distinct threads at once.
+ * calls); a call while another thread's runs on the same detector is refused with
+ * `LUMEN_STATUS_WRONG_THREAD` and changes nothing. Distinct detectors share nothing and may run
+ * on distinct threads at once.
  */
 typedef struct LumenDetector LumenDetector;
 
@@ -692,8 +695,8 @@ LumenStatus lumen_detector_floats(const struct LumenDetector *detector, size_t *
  * detector's history as it was, so the next good frame continues.
  *
  * # Safety
- * no other thread is calling `detector`; `state` points to `len`
- * readable floats; `contacts` and `count` are NULL or writable.
+ * No call frees `detector` meanwhile; `state` points to `len` readable floats; `contacts` and
+ * `count` are NULL or writable.
  */
 LumenStatus lumen_detector_detect(struct LumenDetector *detector,
                                   const float *state,

@@ -8,20 +8,36 @@ use crate::status::LumenStatus;
 use crate::text;
 use lumen_detect::Detector;
 use lumen_proto::Contact;
+use std::cell::UnsafeCell;
 use std::ffi::c_char;
 use std::ptr;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 /// A detector for one scene (opaque): made by `lumen_detector_new`, freed by
 /// `lumen_detector_free`. It keeps each rod sample's place from frame to frame, so feed it the
 /// frames of one simulation in order.
 ///
 /// Threading: one thread at a time may call a detector (it may move between threads between
-/// calls); distinct detectors share nothing and may run on distinct threads at once.
+/// calls); a call while another thread's runs on the same detector is refused with
+/// `LUMEN_STATUS_WRONG_THREAD` and changes nothing. Distinct detectors share nothing and may run
+/// on distinct threads at once.
 pub struct LumenDetector {
-    detector: Detector,
-    /// Set while a frame runs; still set after a panic, when the buffers may be half-written.
-    poisoned: bool,
+    /// Touched only by the call that set `state` from idle to busy.
+    detector: UnsafeCell<Detector>,
+    /// [`IDLE`], [`BUSY`] while a call runs, [`POISONED`] after a panic in one (the buffers may
+    /// be half-written).
+    state: AtomicU8,
+    /// The number of floats of a frame's state (read without entering).
+    floats: usize,
 }
+
+const IDLE: u8 = 0;
+const BUSY: u8 = 1;
+const POISONED: u8 = 2;
+
+// SAFETY: the detector inside is reached only by the one call that moved `state` from IDLE to
+// BUSY, so two threads never touch it at once; a second thread meanwhile is refused.
+unsafe impl Sync for LumenDetector {}
 
 // A handle may move between threads between calls (see the type's documentation).
 const _: () = {
@@ -29,17 +45,35 @@ const _: () = {
     send::<LumenDetector>();
 };
 
+/// Leaves a detector's call: idle again, or poisoned if the call is unwinding.
+struct Leave<'a>(&'a AtomicU8);
+
+impl Drop for Leave<'_> {
+    fn drop(&mut self) {
+        self.0.store(if std::thread::panicking() { POISONED } else { IDLE }, Ordering::Release);
+    }
+}
+
 impl LumenDetector {
-    /// One frame's contacts, or why there are none; refuses to run after a panic.
-    fn detect(&mut self, state: &[f32]) -> Result<&[Contact], Error> {
-        if self.poisoned {
-            return Err(Error::Poisoned);
+    fn new(detector: Detector) -> Self {
+        let floats = detector.layout().floats;
+        Self { detector: UnsafeCell::new(detector), state: AtomicU8::new(IDLE), floats }
+    }
+
+    /// One frame's contacts, or why there are none: refused while another thread's call runs,
+    /// and for good after a panic.
+    fn detect(&self, state: &[f32]) -> Result<&[Contact], Error> {
+        match self.state.compare_exchange(IDLE, BUSY, Ordering::Acquire, Ordering::Relaxed) {
+            Ok(_) => {}
+            Err(POISONED) => return Err(Error::Poisoned),
+            Err(_) => return Err(Error::DetectorBusy),
         }
-        // Stays set only if the frame unwinds: an error return leaves the detector sound.
-        self.poisoned = true;
-        let contacts = self.detector.detect(state);
-        self.poisoned = false;
-        Ok(contacts?)
+        let _leave = Leave(&self.state);
+        // SAFETY: this call moved `state` from IDLE to BUSY: nothing else touches the detector
+        // until `_leave` drops. The contacts returned live in it until the caller's next call
+        // (the API's contract), after this one has left.
+        let detector = unsafe { &mut *self.detector.get() };
+        Ok(detector.detect(state)?)
     }
 }
 
@@ -62,7 +96,7 @@ pub unsafe extern "C" fn lumen_detector_new(spec_json: *const c_char, len: usize
         *out = ptr::null_mut();
         // SAFETY: `spec_json` points to `len` readable bytes (the caller's contract).
         let scene = unsafe { text::spec(spec_json, len) }?.validate().map_err(Error::BadSpec)?;
-        *out = handles::register(LumenDetector { detector: Detector::new(&scene), poisoned: false }, Kind::Detector);
+        *out = handles::register(LumenDetector::new(Detector::new(&scene)), Kind::Detector);
         Ok(())
     })
 }
@@ -94,8 +128,8 @@ pub unsafe extern "C" fn lumen_detector_floats(detector: *const LumenDetector, o
         let out = unsafe { out.as_mut() }.ok_or(Error::NullArgument("out"))?;
         *out = 0;
         // SAFETY: no other call frees it meanwhile (the caller's contract).
-        let detector = unsafe { handles::get(detector.cast_mut(), Kind::Detector, "detector") }?;
-        *out = detector.detector.layout().floats;
+        let detector = unsafe { handles::shared(detector, Kind::Detector, "detector") }?;
+        *out = detector.floats;
         Ok(())
     })
 }
@@ -111,8 +145,8 @@ pub unsafe extern "C" fn lumen_detector_floats(detector: *const LumenDetector, o
 /// detector's history as it was, so the next good frame continues.
 ///
 /// # Safety
-/// no other thread is calling `detector`; `state` points to `len`
-/// readable floats; `contacts` and `count` are NULL or writable.
+/// No call frees `detector` meanwhile; `state` points to `len` readable floats; `contacts` and
+/// `count` are NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn lumen_detector_detect(detector: *mut LumenDetector, state: *const f32, len: usize, contacts: *mut *const Contact, count: *mut usize) -> LumenStatus {
     call(|| {
@@ -122,8 +156,9 @@ pub unsafe extern "C" fn lumen_detector_detect(detector: *mut LumenDetector, sta
         *contacts = ptr::null();
         let count = count.ok_or(Error::NullArgument("count"))?;
         *count = 0;
-        // SAFETY: no other thread calls it (the caller's contract).
-        let detector = unsafe { handles::get(detector, Kind::Detector, "detector") }?;
+        // SAFETY: no call frees it meanwhile (the caller's contract); another thread's call at
+        // the same time is refused inside.
+        let detector = unsafe { handles::shared(detector, Kind::Detector, "detector") }?;
         if state.is_null() {
             return Err(Error::NullArgument("state"));
         }

@@ -22,6 +22,8 @@ pub enum Error {
     BadState(InputError),
     /// The detector panicked in an earlier call; its buffers may be half-written.
     Poisoned,
+    /// A detector called while another thread's call on it runs.
+    DetectorBusy,
     /// A panic caught at the boundary, with its message.
     Panic(String),
     /// A handle that is not a live one of the right kind.
@@ -45,6 +47,7 @@ impl Error {
             Error::BadJson(_) | Error::BadSpec(_) | Error::TrailingNul { .. } => LumenStatus::BadSpec,
             Error::BadState(_) => LumenStatus::BadState,
             Error::Poisoned | Error::Panic(_) => LumenStatus::Panic,
+            Error::DetectorBusy => LumenStatus::WrongThread,
             Error::BadHandle { .. } => LumenStatus::BadHandle,
             Error::WrongThread(_) => LumenStatus::WrongThread,
             Error::BadText { .. } => LumenStatus::BadUtf8,
@@ -75,6 +78,7 @@ impl fmt::Display for Error {
             Error::TrailingNul { len } => write!(f, "scene spec: {len} bytes given, the last a NUL: give the JSON's length without its NUL (strlen, not strlen + 1 or sizeof)"),
             Error::BadState(e) => write!(f, "state: {e}"),
             Error::Poisoned => write!(f, "this detector panicked in an earlier call and cannot be used again: free it and make another"),
+            Error::DetectorBusy => write!(f, "another thread is calling this detector right now: one thread at a time per detector (nothing was done; make one detector per thread)"),
             Error::Panic(message) => write!(f, "internal error (a caught panic; please report it): {message}"),
             Error::BadHandle { name, detail } => write!(f, "argument `{name}` is not a live handle: {detail}"),
             Error::WrongThread(name) => write!(f, "`{name}` is a local (iceoryx2) object of another thread: use it on the thread that made it (one client per thread)"),

@@ -54,6 +54,17 @@ pub(crate) unsafe fn get<'a, T>(ptr: *mut T, kind: Kind, name: &'static str) -> 
     Ok(unsafe { &mut *ptr })
 }
 
+/// The object behind a live handle of `kind`, shared: for objects that guard themselves
+/// against calls from two threads at once (the detector).
+///
+/// # Safety
+/// No other call frees the same handle meanwhile.
+pub(crate) unsafe fn shared<'a, T: Sync>(ptr: *const T, kind: Kind, name: &'static str) -> Result<&'a T, Error> {
+    check(ptr, kind, name)?;
+    // SAFETY: registered by `register` and not yet released, so it points to a live `T`.
+    Ok(unsafe { &*ptr })
+}
+
 /// Unregisters a live handle of `kind` and gives its object back, to be dropped.
 ///
 /// # Safety

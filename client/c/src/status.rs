@@ -24,7 +24,8 @@ pub enum LumenStatus {
     /// Lumen, or a session given where a client is wanted).
     BadHandle = 6,
     /// An iceoryx2 (local) client, session or observer was called from a thread other than
-    /// the one that made it: make one client per thread.
+    /// the one that made it (make one client per thread), or a detector while another thread's
+    /// call on it ran (one thread at a time per detector). Nothing was done.
     WrongThread = 7,
     /// No daemon answers (none running, another iceoryx2 prefix or zenoh endpoint, a zenoh
     /// endpoint nothing listens on or cannot be reached, a TLS file missing, or a daemon too

@@ -201,3 +201,35 @@ fn a_zenoh_client_names_a_missing_tls_file_and_a_half_identity() {
     assert_eq!(unsafe { lumen_client_zenoh(endpoint.as_ptr().cast(), &half, ptr::null(), &mut client) }, LumenStatus::NullArgument);
     assert!(last_error().contains("go together"), "{}", last_error());
 }
+
+/// Two threads calling one detector at once (forbidden): each call either runs or is refused
+/// with WRONG_THREAD, never PANIC, and the detector answers correctly afterwards.
+#[test]
+fn two_threads_on_one_detector_are_refused_not_poisoned() {
+    let (status, d) = new(SPEC);
+    assert_eq!(status, LumenStatus::Ok);
+    let (_, _, expected) = detect(d, &state(0.5));
+    let handle = d as usize;
+    let refused: usize = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..2)
+            .map(|_| {
+                s.spawn(move || {
+                    let mut refused = 0;
+                    for _ in 0..2000 {
+                        match detect(handle as *mut LumenDetector, &state(0.5)).0 {
+                            LumenStatus::Ok => {}
+                            LumenStatus::WrongThread => refused += 1,
+                            other => panic!("{other:?}: {}", last_error()),
+                        }
+                    }
+                    refused
+                })
+            })
+            .collect();
+        workers.into_iter().map(|w| w.join().unwrap()).sum()
+    });
+    eprintln!("{refused} of 4000 calls refused while the other thread's ran");
+    let (status, _, count) = detect(d, &state(0.5));
+    assert_eq!((status, count), (LumenStatus::Ok, expected), "the detector goes on");
+    assert_eq!(unsafe { lumen_detector_free(d) }, LumenStatus::Ok);
+}
