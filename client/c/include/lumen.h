@@ -83,7 +83,11 @@
 
 /**
  * What a call did. `LUMEN_STATUS_OK` is 0; on any other status the call changed nothing but
- * its out-parameters (set to NULL or 0), and `lumen_last_error` says what was wrong.
+ * its out-parameters (set to NULL or 0), and `lumen_last_error` says what was wrong. Besides
+ * the statuses each function's documentation names, any call may return
+ * `LUMEN_STATUS_NULL_ARGUMENT` (a NULL pointer it needs), `LUMEN_STATUS_BAD_HANDLE` (a handle
+ * freed already, or of another kind), `LUMEN_STATUS_WRONG_THREAD` (see its entry) and
+ * `LUMEN_STATUS_PANIC` (a bug, caught at the boundary).
  */
 enum LumenStatus
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -611,7 +615,9 @@ size_t lumen_last_error(char *buf, size_t len);
  * `prefix` is iceoryx2's `global.prefix` and must be the daemon's (`lumen serve --prefix`);
  * NULL: the `LUMEN_IOX2_PREFIX` environment variable, else iceoryx2's default. `name` is
  * what `lumen status` shows for this client's sessions; NULL: the executable's name.
- * Nothing is sent yet: a missing daemon shows at `lumen_session_open`.
+ * Nothing is sent yet: a missing daemon shows at `lumen_session_open`. `LUMEN_STATUS_BAD_UTF8`
+ * for a `prefix` or `name` that is not UTF-8; `LUMEN_STATUS_TRANSPORT` when iceoryx2 cannot
+ * start here (shared memory, permissions, an invalid prefix).
  *
  * On `LUMEN_STATUS_OK`, `*out` is the new client, the caller's until `lumen_client_free`.
  *
@@ -807,6 +813,10 @@ LumenStatus lumen_session_frame(struct LumenSession *session, float **frame, siz
  * Sends the frame written through `lumen_session_frame`, stamped with the time (for the
  * round trip) and the next frame number, which goes to `*frame_number` (NULL: not wanted).
  *
+ * `LUMEN_STATUS_NO_FRAME` without a `lumen_session_frame` since the last submit;
+ * `LUMEN_STATUS_DISCONNECTED` when the daemon is gone (get a frame again: the session
+ * reopens there); `LUMEN_STATUS_TRANSPORT` when the transport failed.
+ *
  * # Safety
  * `frame_number` is NULL or writable; no call frees `session` meanwhile.
  */
@@ -817,6 +827,9 @@ LumenStatus lumen_session_submit(struct LumenSession *session, uint64_t *frame_n
  * (blocking, no busy polling) and puts it in `*reply`: header, contacts and count, valid until
  * the next call on `session`. A reply to an older frame (one that came after its wait timed
  * out) is dropped, never returned for this one (`lumen_session_stale_replies` counts them).
+ * `LUMEN_STATUS_TIMEOUT` when none came in time (the session still works);
+ * `LUMEN_STATUS_DISCONNECTED` when the daemon is gone or no longer has the session (keep
+ * submitting: it reopens); `LUMEN_STATUS_PROTOCOL` for a reply this library cannot read.
  * A frame the daemon could not read is still a reply: check `reply->header->status`.
  * `LUMEN_STATUS_TIMEOUT` when none came (the session still works).
  *

@@ -45,7 +45,9 @@ pub struct LumenTls {
 /// `prefix` is iceoryx2's `global.prefix` and must be the daemon's (`lumen serve --prefix`);
 /// NULL: the `LUMEN_IOX2_PREFIX` environment variable, else iceoryx2's default. `name` is
 /// what `lumen status` shows for this client's sessions; NULL: the executable's name.
-/// Nothing is sent yet: a missing daemon shows at `lumen_session_open`.
+/// Nothing is sent yet: a missing daemon shows at `lumen_session_open`. `LUMEN_STATUS_BAD_UTF8`
+/// for a `prefix` or `name` that is not UTF-8; `LUMEN_STATUS_TRANSPORT` when iceoryx2 cannot
+/// start here (shared memory, permissions, an invalid prefix).
 ///
 /// On `LUMEN_STATUS_OK`, `*out` is the new client, the caller's until `lumen_client_free`.
 ///

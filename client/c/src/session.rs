@@ -162,6 +162,10 @@ pub unsafe extern "C" fn lumen_session_frame(session: *mut LumenSession, frame: 
 /// Sends the frame written through `lumen_session_frame`, stamped with the time (for the
 /// round trip) and the next frame number, which goes to `*frame_number` (NULL: not wanted).
 ///
+/// `LUMEN_STATUS_NO_FRAME` without a `lumen_session_frame` since the last submit;
+/// `LUMEN_STATUS_DISCONNECTED` when the daemon is gone (get a frame again: the session
+/// reopens there); `LUMEN_STATUS_TRANSPORT` when the transport failed.
+///
 /// # Safety
 /// `frame_number` is NULL or writable; no call frees `session` meanwhile.
 #[no_mangle]
@@ -180,6 +184,9 @@ pub unsafe extern "C" fn lumen_session_submit(session: *mut LumenSession, frame_
 /// (blocking, no busy polling) and puts it in `*reply`: header, contacts and count, valid until
 /// the next call on `session`. A reply to an older frame (one that came after its wait timed
 /// out) is dropped, never returned for this one (`lumen_session_stale_replies` counts them).
+/// `LUMEN_STATUS_TIMEOUT` when none came in time (the session still works);
+/// `LUMEN_STATUS_DISCONNECTED` when the daemon is gone or no longer has the session (keep
+/// submitting: it reopens); `LUMEN_STATUS_PROTOCOL` for a reply this library cannot read.
 /// A frame the daemon could not read is still a reply: check `reply->header->status`.
 /// `LUMEN_STATUS_TIMEOUT` when none came (the session still works).
 ///

@@ -1,7 +1,11 @@
 //! The status every call returns: a fixed-width integer in C, zero for success.
 
 /// What a call did. `LUMEN_STATUS_OK` is 0; on any other status the call changed nothing but
-/// its out-parameters (set to NULL or 0), and `lumen_last_error` says what was wrong.
+/// its out-parameters (set to NULL or 0), and `lumen_last_error` says what was wrong. Besides
+/// the statuses each function's documentation names, any call may return
+/// `LUMEN_STATUS_NULL_ARGUMENT` (a NULL pointer it needs), `LUMEN_STATUS_BAD_HANDLE` (a handle
+/// freed already, or of another kind), `LUMEN_STATUS_WRONG_THREAD` (see its entry) and
+/// `LUMEN_STATUS_PANIC` (a bug, caught at the boundary).
 #[repr(i32)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LumenStatus {
