@@ -162,6 +162,12 @@ fn freed_foreign_and_wrong_kind_handles_are_bad_handle_not_crashes() {
     assert_eq!(unsafe { lumen_session_submit(client.cast(), &mut number) }, LumenStatus::BadHandle);
     assert_eq!(unsafe { lumen_client_free(client) }, LumenStatus::Ok);
     lumen_transport::shm::remove_prefix(prefix.trim_end_matches('\0'));
+    // A prefix iceoryx2 cannot take is TRANSPORT, as lumen.h says; a name that is not UTF-8 is
+    // BAD_UTF8.
+    let mut bad = ptr::null_mut();
+    assert_eq!(unsafe { lumen_client_local(c"a/b".as_ptr(), ptr::null(), &mut bad) }, LumenStatus::Transport, "{}", last_error());
+    assert!(bad.is_null());
+    assert_eq!(unsafe { lumen_client_local(prefix.as_ptr().cast(), b"\xff\0".as_ptr().cast(), &mut bad) }, LumenStatus::BadUtf8);
 }
 
 #[test]
