@@ -139,6 +139,7 @@ const CSHARP: &[&str] = &[
     "empty spec: BadSpec",
     "bad frame: NonFinite body 1 index 1: body \"scope\": control point 1 has a non-finite coordinate (NaN)",
     "daemon: 20 frames checked",
+    "after a timeout: the newest frame's reply",
     "observer: the newest frame and its reply",
     "refused: Refused",
     "ok",

@@ -108,6 +108,17 @@ static class LumenTest
             Console.WriteLine("bad frame: {0} body {1} index {2}: {3}", r.Status, r.ErrorBody, r.ErrorIndex, r.Message);
             bad += r.Status == FrameStatus.NonFinite && r.ErrorBody == 1 && r.ErrorIndex == 1 && r.Count == 0 ? 0 : 1;
             Console.WriteLine("daemon: 20 frames checked");
+            // A Receive that gave up never makes the next one return that frame's late reply.
+            ulong early = session.Submit(State(9.0));
+            bool gaveUp = false;
+            try { session.Receive(0); } catch (LumenException e) when (e.Status == Status.Timeout) { gaveUp = true; }
+            System.Threading.Thread.Sleep(300);
+            ulong next = session.Submit(State(8.5));
+            Reply late = session.Receive(2000);
+            bool newest = late.Frame == next && next == early + 1 && (!gaveUp || session.StaleReplies >= 1);
+            bad += newest ? 0 : 1;
+            bad += Check(session.Contacts, late.Count, 8.5);
+            Console.WriteLine("after a timeout: {0}", newest ? "the newest frame's reply" : "another frame's reply");
             bad += Observed(client, session);
         }
         try { client.Open("{\"bodies\":[],\"pairs\":[]}"); bad++; }
