@@ -167,7 +167,7 @@ fn freed_foreign_and_wrong_kind_handles_are_bad_handle_not_crashes() {
     let mut bad = ptr::null_mut();
     assert_eq!(unsafe { lumen_client_local(c"a/b".as_ptr(), ptr::null(), &mut bad) }, LumenStatus::Transport, "{}", last_error());
     assert!(bad.is_null());
-    assert_eq!(unsafe { lumen_client_local(prefix.as_ptr().cast(), b"\xff\0".as_ptr().cast(), &mut bad) }, LumenStatus::BadUtf8);
+    assert_eq!(unsafe { lumen_client_local(prefix.as_ptr().cast(), c"\xff".as_ptr(), &mut bad) }, LumenStatus::BadUtf8);
 }
 
 #[test]
