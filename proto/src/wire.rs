@@ -39,6 +39,16 @@ pub const NO_INDEX: u32 = u32::MAX;
 /// `ContactsHeader::flags` bit: more contacts were found than the session's capacity
 /// (`SessionInfo::max_contacts`); the first `count` are sent.
 pub const FLAG_TRUNCATED: u16 = 1;
+/// `FrameHeader::flags` bit: the frame carries what changed since a base frame (a
+/// [`DeltaHeader`] and its coded rows) instead of every float.
+pub const FLAG_DELTA: u16 = 1;
+/// `FrameHeader::flags` bit: keep this frame's state as the session's base once it is answered
+/// with status 0 (the daemon holds one base; a newer kept frame replaces it).
+pub const FLAG_KEEP: u16 = 2;
+/// The frame flags version 1 defines; any other bit is refused as malformed.
+pub const FRAME_FLAGS: u16 = FLAG_DELTA | FLAG_KEEP;
+/// Size of [`DeltaHeader`] in bytes (after the frame header of a delta frame).
+pub const DELTA_HEADER_BYTES: usize = 16;
 
 /// Header of one frame: who sends it, which frame it is, and how many floats follow.
 ///
@@ -51,7 +61,7 @@ pub struct FrameHeader {
     pub magic: u32,
     /// [`PROTOCOL_VERSION`].
     pub version: u16,
-    /// Reserved, 0.
+    /// [`FLAG_DELTA`] and [`FLAG_KEEP`]; other bits are reserved (0).
     pub flags: u16,
     /// The session id from the open reply.
     pub session: u64,
@@ -93,6 +103,12 @@ pub enum Status {
     /// `error_index`, `error_spoke` say where), or a contact came out non-finite (`error_body`
     /// is the rod, `error_index` its sample): nothing non-finite is ever sent.
     OutOfRange = 9,
+    /// A delta frame names a base the session does not hold (never kept, or replaced by a
+    /// newer kept frame, or the daemon restarted): nothing was detected; send a full frame.
+    NoBase = 10,
+    /// A delta frame that does not decode (cut short, corrupted, counts that disagree):
+    /// nothing was detected and the base is unchanged.
+    BadDelta = 11,
 }
 
 impl Status {
@@ -110,6 +126,8 @@ impl Status {
             7 => NotStarShaped,
             8 => Internal,
             9 => OutOfRange,
+            10 => NoBase,
+            11 => BadDelta,
             _ => return None,
         })
     }
@@ -205,7 +223,7 @@ pub enum FrameError {
     Magic { got: u32 },
     /// Wrong protocol version.
     Version { got: u16 },
-    /// Reserved header flags set (version 1 defines none).
+    /// Reserved header flags set (version 1 defines [`FRAME_FLAGS`]).
     Flags { got: u16 },
     /// A frame number beyond [`MAX_FRAME_NUMBER`].
     FrameNumber { got: u64 },
@@ -225,7 +243,7 @@ impl fmt::Display for FrameError {
             FrameError::TooShort { got } => write!(f, "frame of {got} bytes is shorter than its {FRAME_HEADER_BYTES}-byte header"),
             FrameError::Magic { got } => write!(f, "frame magic is {got:#010x}; expected {FRAME_MAGIC:#010x} (\"LMNF\")"),
             FrameError::Version { got } => write!(f, "frame version {got}; this daemon speaks version {PROTOCOL_VERSION}"),
-            FrameError::Flags { got } => write!(f, "frame flags are {got:#06x}; they are reserved in version {PROTOCOL_VERSION}: send 0"),
+            FrameError::Flags { got } => write!(f, "frame flags are {got:#06x}; version {PROTOCOL_VERSION} defines only bit 0 (delta) and bit 1 (keep)"),
             FrameError::FrameNumber { got } => write!(f, "frame number {got} is beyond {MAX_FRAME_NUMBER} (2^53 - 1): number frames 0, 1, 2, ..."),
             FrameError::Session { expected, got } => write!(f, "frame names session {got}; this is session {expected}"),
             FrameError::Floats { expected, header, payload } => {
@@ -289,7 +307,18 @@ impl FrameHeader {
         })
     }
 
-    /// Checks this header and a payload of `payload_floats` floats against the session.
+    /// Whether the frame carries a delta ([`FLAG_DELTA`]) rather than every float.
+    pub fn is_delta(&self) -> bool {
+        self.flags & FLAG_DELTA != 0
+    }
+
+    /// Whether the frame asks to be kept as the session's base ([`FLAG_KEEP`]).
+    pub fn keeps(&self) -> bool {
+        self.flags & FLAG_KEEP != 0
+    }
+
+    /// Checks this header and a payload of `payload_floats` floats against the session (for a
+    /// delta frame, pass the header's own `floats`: its payload is coded, see [`DeltaHeader`]).
     pub fn check(&self, session: u64, layout: &StateLayout, payload_floats: usize) -> Result<(), FrameError> {
         if self.magic != FRAME_MAGIC {
             return Err(FrameError::Magic { got: self.magic });
@@ -297,7 +326,7 @@ impl FrameHeader {
         if self.version != PROTOCOL_VERSION {
             return Err(FrameError::Version { got: self.version });
         }
-        if self.flags != 0 {
+        if self.flags & !FRAME_FLAGS != 0 {
             return Err(FrameError::Flags { got: self.flags });
         }
         if self.frame > MAX_FRAME_NUMBER {
@@ -345,6 +374,35 @@ pub fn encode_frame(header: &FrameHeader, state: &[f32], out: &mut Vec<u8>) {
     #[cfg(not(target_endian = "little"))]
     for v in state {
         out.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// What follows the frame header of a delta frame ([`FLAG_DELTA`]): 16 bytes, then `encoded`
+/// bytes of one zstd frame holding the changed rows (`lumen_transport::delta` codes them;
+/// `proto/README.md`, section 2, gives the layout).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DeltaHeader {
+    /// The frame number of the base: a frame the daemon answered with status 0 and kept.
+    pub base: u64,
+    /// Rows (3 floats: a point or a radial vector) that differ from the base.
+    pub changed: u32,
+    /// Bytes of the zstd frame that follows.
+    pub encoded: u32,
+}
+
+impl DeltaHeader {
+    /// The header's 16 bytes, little-endian.
+    pub fn to_bytes(&self) -> [u8; DELTA_HEADER_BYTES] {
+        let mut b = [0u8; DELTA_HEADER_BYTES];
+        b[0..8].copy_from_slice(&self.base.to_le_bytes());
+        b[8..12].copy_from_slice(&self.changed.to_le_bytes());
+        b[12..16].copy_from_slice(&self.encoded.to_le_bytes());
+        b
+    }
+
+    /// Reads the header from the first 16 bytes of `b`; `None` if there are fewer.
+    pub fn read(b: &[u8]) -> Option<Self> {
+        (b.len() >= DELTA_HEADER_BYTES).then(|| Self { base: le_u64(b, 0), changed: le_u32(b, 8), encoded: le_u32(b, 12) })
     }
 }
 
@@ -602,9 +660,10 @@ mod tests {
         assert_eq!(bodies.check(5, &l, 30).unwrap_err().status(), Status::BadCounts);
         let version = FrameHeader { version: 9, ..good };
         assert_eq!(version.check(5, &l, 30).unwrap_err().status(), Status::BadVersion);
-        let flags = FrameHeader { flags: 1, ..good };
-        assert_eq!(flags.check(5, &l, 30), Err(FrameError::Flags { got: 1 }));
-        assert_eq!(FrameError::Flags { got: 1 }.status(), Status::Malformed);
+        let flags = FrameHeader { flags: 4, ..good };
+        assert_eq!(flags.check(5, &l, 30), Err(FrameError::Flags { got: 4 }));
+        assert_eq!(FrameError::Flags { got: 4 }.status(), Status::Malformed);
+        assert_eq!(FrameHeader { flags: FLAG_DELTA | FLAG_KEEP, ..good }.check(5, &l, 30), Ok(()));
         let huge = FrameHeader { frame: u64::MAX, ..good };
         assert_eq!(huge.check(5, &l, 30), Err(FrameError::FrameNumber { got: u64::MAX }));
         assert_eq!(FrameHeader { frame: MAX_FRAME_NUMBER, ..good }.check(5, &l, 30), Ok(()));

@@ -1,11 +1,13 @@
-//! One session's frame processing, the same for both transports: check the frame, detect,
-//! build the reply. Allocation-free once the detector has warmed up (error replies format their
+//! One session's frame processing, the same for both transports: check the frame, rebuild a
+//! delta frame's state on the session's base, detect, build the reply, keep the base.
+//! Allocation-free once the detector and the base have warmed up (error replies format their
 //! message into the header's fixed buffer; only the pipeline's own error values allocate).
 
 use crate::registry::Entry;
 use lumen_detect::Detector;
-use lumen_proto::wire::{ContactsHeader, FrameError, FrameHeader, FLAG_TRUNCATED};
+use lumen_proto::wire::{ContactsHeader, FrameError, FrameHeader, Status, FLAG_TRUNCATED};
 use lumen_proto::{Contact, StateLayout};
+use lumen_transport::delta::Decoder;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -16,6 +18,12 @@ pub struct Engine {
     detector: Option<Detector>,
     max_contacts: usize,
     last_frame: Option<u64>,
+    /// The state of the newest frame flagged keep and answered with status 0, and its number:
+    /// what delta frames are made against.
+    base: Vec<f32>,
+    base_frame: Option<u64>,
+    /// Made at the first delta frame: a session of full frames never pays for it.
+    decoder: Option<Decoder>,
     pub entry: Arc<Entry>,
 }
 
@@ -23,7 +31,7 @@ impl Engine {
     /// An engine for the session in `entry`, whose scene was validated when it opened.
     pub fn new(entry: Arc<Entry>, echo: bool) -> Self {
         let detector = (!echo).then(|| Detector::new(&entry.scene));
-        Self { id: entry.info.session, detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, entry }
+        Self { id: entry.info.session, detector, max_contacts: entry.info.max_contacts as usize, last_frame: None, base: Vec::new(), base_frame: None, decoder: None, entry }
     }
 
     /// Where each body's floats go in this session's frames (the scene's own layout).
@@ -31,47 +39,113 @@ impl Engine {
         self.entry.scene.layout()
     }
 
-    /// Runs one frame: `frame` is the header and floats if they were readable, else the header
-    /// as far as it could be read and why it was refused. Returns the reply header and the
-    /// contacts to send with it.
+    /// Runs one full frame: `frame` is the header and floats if they were readable, else the
+    /// header as far as it could be read and why it was refused. Returns the reply header and
+    /// the contacts to send with it. A frame flagged keep and answered with status 0 becomes the
+    /// session's base (a copy of its floats).
     pub fn run(&mut self, frame: Result<(FrameHeader, &[f32]), (FrameHeader, FrameError)>) -> (ContactsHeader, &[Contact]) {
         let (header, state) = match frame {
-            Ok((h, s)) => match h.check(self.id, self.entry.scene.layout(), s.len()) {
+            Ok((h, s)) if !h.is_delta() => match h.check(self.id, self.entry.scene.layout(), s.len()) {
                 Ok(()) => (h, s),
                 Err(e) => return (self.refuse(&h, &e), &[]),
             },
+            Ok((h, _)) => {
+                let mut reply = self.refuse(&h, &FrameError::Flags { got: h.flags });
+                reply.set_error(Status::Malformed, &"a delta frame was read as a full one (a daemon bug)");
+                return (reply, &[]);
+            }
             Err((h, e)) => return (self.refuse(&h, &e), &[]),
         };
         let mut reply = ContactsHeader::reply_to(&header);
         reply.skipped = self.skipped(&header);
-        if self.detector.is_none() {
+        let n = Self::detect(&mut self.detector, &self.entry, self.max_contacts, state, &mut reply);
+        if reply.status == 0 && header.keeps() {
+            self.base.clear();
+            self.base.extend_from_slice(state);
+            self.base_frame = Some(header.frame);
+        }
+        (reply, self.contacts(n))
+    }
+
+    /// Runs one delta frame: `body` is everything after its header (the delta header and the
+    /// coded rows). The state is rebuilt on the base in place; unless the frame is kept (flag
+    /// keep, status 0) the base is put back as it was.
+    pub fn run_delta(&mut self, header: FrameHeader, body: &[u8]) -> (ContactsHeader, &[Contact]) {
+        let floats = self.entry.scene.layout().floats;
+        if let Err(e) = header.check(self.id, self.entry.scene.layout(), header.floats as usize) {
+            return (self.refuse(&header, &e), &[]);
+        }
+        let mut reply = ContactsHeader::reply_to(&header);
+        reply.skipped = self.skipped(&header);
+        if self.decoder.is_none() {
+            match Decoder::new() {
+                Ok(d) => self.decoder = Some(d),
+                Err(e) => {
+                    reply.set_error(Status::Internal, &format_args!("no delta decoder: {e}"));
+                    return (reply, &[]);
+                }
+            }
+        }
+        let decoder = self.decoder.as_mut().expect("made above");
+        let delta = match decoder.read(body, floats) {
+            Ok(d) => d,
+            Err(e) => {
+                reply.set_error(Status::BadDelta, &e);
+                return (reply, &[]);
+            }
+        };
+        if self.base_frame != Some(delta.base) || self.base.len() != floats {
+            match self.base_frame {
+                Some(held) => reply.set_error(Status::NoBase, &format_args!("delta against frame {}; the session's base is frame {held}: send a full frame", delta.base)),
+                None => reply.set_error(Status::NoBase, &format_args!("delta against frame {}; the session holds no base (keep a full frame first)", delta.base)),
+            }
             return (reply, &[]);
         }
+        decoder.apply(&mut self.base);
+        let n = Self::detect(&mut self.detector, &self.entry, self.max_contacts, &self.base, &mut reply);
+        let decoder = self.decoder.as_mut().expect("made above");
+        if reply.status == 0 && header.keeps() {
+            self.base_frame = Some(header.frame);
+        } else {
+            decoder.undo(&mut self.base);
+        }
+        (reply, self.contacts(n))
+    }
+
+    /// The first `n` contacts of the last detection.
+    fn contacts(&self, n: usize) -> &[Contact] {
+        match &self.detector {
+            Some(d) if n > 0 => &d.contacts()[..n],
+            _ => &[],
+        }
+    }
+
+    /// Detects `state` into `reply` (status, count, timing); returns the contacts to send.
+    fn detect(detector: &mut Option<Detector>, entry: &Entry, max_contacts: usize, state: &[f32], reply: &mut ContactsHeader) -> usize {
+        let Some(det) = detector.as_mut() else { return 0 };
         // A pipeline panic on some finite but absurd input must not end the session (nor the
         // daemon): it is answered as an internal error and the detector starts afresh.
         let t0 = Instant::now();
-        let detector = self.detector.as_mut().expect("checked");
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| detector.detect(state).map(|c| c.len())));
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| det.detect(state).map(|c| c.len())));
         reply.detect_ns = t0.elapsed().as_nanos().min(u32::MAX as u128) as u32;
         match outcome {
             Ok(Ok(found)) => {
-                let contacts = self.detector.as_ref().expect("present").contacts();
-                let n = found.min(self.max_contacts);
+                let n = found.min(max_contacts);
                 if n < found {
                     reply.flags |= FLAG_TRUNCATED;
                 }
                 reply.count = n as u32;
-                (reply, &contacts[..n])
+                n
             }
             Ok(Err(e)) => {
-                let spec = self.entry.scene.spec();
+                let spec = entry.scene.spec();
                 reply.set_input_error(&e, |name| spec.body_index(name));
-                (reply, &[])
+                0
             }
             Err(_) => {
-                reply.set_error(lumen_proto::wire::Status::Internal, &"the detector failed on this frame; it was reset and the session goes on");
-                self.detector = Some(Detector::new(&self.entry.scene));
-                (reply, &[])
+                reply.set_error(Status::Internal, &"the detector failed on this frame; it was reset and the session goes on");
+                *detector = Some(Detector::new(&entry.scene));
+                0
             }
         }
     }
@@ -162,5 +236,61 @@ mod tests {
         // Frame 5 after frame 2: two skipped (3 and 4), and the same contacts as frame 0.
         let (r, c) = e.run(Ok((h(5), &state)));
         assert_eq!((r.status, r.skipped, c.len()), (0, 2, n_good));
+    }
+
+    #[test]
+    fn delta_frames_rebuild_the_state_on_the_kept_base_and_never_damage_it() {
+        use lumen_proto::wire::{FLAG_DELTA, FLAG_KEEP};
+        let mut e = engine();
+        let mut fresh = engine();
+        let floats = e.layout().floats;
+        let id = e.id;
+        let state = |k: u64| {
+            let mut s = vec![0.0f32; floats];
+            lumen_scene::frames::write_state(k, &mut s);
+            s
+        };
+        let h = |n, flags| FrameHeader { flags, ..FrameHeader::new(id, n, 0, floats, 2) };
+        let mut enc = lumen_transport::delta::Encoder::new().unwrap();
+        let delta = |enc: &mut lumen_transport::delta::Encoder, base_frame, base: &[f32], new: &[f32]| {
+            let mut out = Vec::new();
+            enc.encode(base_frame, base, new, &mut out).unwrap();
+            out
+        };
+        // Before any kept frame there is no base.
+        let d = delta(&mut enc, 0, &state(0), &state(1));
+        assert_eq!(e.run_delta(h(0, FLAG_DELTA), &d).0.status(), Some(Status::NoBase));
+        // Frame 1 full and kept; frame 2 a kept delta on it; frame 3 an unkept delta on 2; frame
+        // 4 again on 2 (3 was not kept): each answered as the full frame is by a fresh engine.
+        assert_eq!(e.run(Ok((h(1, FLAG_KEEP), &state(1)))).0.status, 0);
+        let check = |e: &mut Engine, fresh: &mut Engine, n: u64, flags: u16, body: &[u8]| {
+            let (r, c) = e.run_delta(h(n, FLAG_DELTA | flags), body);
+            let (r, c) = (r, c.to_vec());
+            let own = FrameHeader { session: fresh.id, ..h(n, 0) };
+            let (f, fc) = fresh.run(Ok((own, &state(n))));
+            assert_eq!((r.status, r.count, f.status), (0, f.count, 0), "frame {n}: {}", r.message());
+            assert!(f.count > 0, "frame {n}");
+            assert_eq!(format!("{c:?}"), format!("{fc:?}"), "frame {n}");
+        };
+        check(&mut e, &mut fresh, 2, FLAG_KEEP, &delta(&mut enc, 1, &state(1), &state(2)));
+        check(&mut e, &mut fresh, 3, 0, &delta(&mut enc, 2, &state(2), &state(3)));
+        let stale = delta(&mut enc, 1, &state(1), &state(4));
+        let (r, _) = e.run_delta(h(4, FLAG_DELTA | FLAG_KEEP), &stale);
+        assert_eq!(r.status(), Some(Status::NoBase));
+        assert!(r.message().contains("the session's base is frame 2"), "{}", r.message());
+        check(&mut e, &mut fresh, 5, 0, &delta(&mut enc, 2, &state(2), &state(5)));
+        // Damaged deltas and a delta to a non-finite state: refused, the base as it was.
+        let good = delta(&mut enc, 2, &state(2), &state(6));
+        let (r, _) = e.run_delta(h(6, FLAG_DELTA | FLAG_KEEP), &good[..good.len() - 3]);
+        assert_eq!(r.status(), Some(Status::BadDelta), "{}", r.message());
+        let mut nan = state(6);
+        nan[7] = f32::NAN;
+        let (r, _) = e.run_delta(h(7, FLAG_DELTA | FLAG_KEEP), &delta(&mut enc, 2, &state(2), &nan));
+        assert_eq!(r.status(), Some(Status::NonFinite));
+        check(&mut e, &mut fresh, 8, FLAG_KEEP, &delta(&mut enc, 2, &state(2), &state(8)));
+        check(&mut e, &mut fresh, 9, 0, &delta(&mut enc, 8, &state(8), &state(9)));
+        // A delta whose header says another float count is refused before it is read.
+        let (r, _) = e.run_delta(FrameHeader { floats: 3, ..h(10, FLAG_DELTA) }, &good);
+        assert_eq!(r.status(), Some(Status::BadLength));
     }
 }

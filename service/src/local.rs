@@ -236,8 +236,10 @@ impl Channels {
             engine.entry.count_forged(forged, "frame(s) published by a process other than its opener");
         }
         let Some(sample) = newest else { return false };
-        // The frame is read where the client wrote it: no copy.
-        let (reply, contacts) = engine.run(Ok((*sample.user_header(), sample.payload())));
+        // The frame is read where the client wrote it: no copy. A delta frame's bytes travel as
+        // whole floats.
+        let header = *sample.user_header();
+        let (reply, contacts) = if header.is_delta() { engine.run_delta(header, bytemuck::cast_slice(sample.payload())) } else { engine.run(Ok((header, sample.payload()))) };
         let mut service = received.elapsed();
         match self.publisher.loan_slice_uninit(contacts.len()) {
             Ok(loan) => {

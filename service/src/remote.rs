@@ -186,6 +186,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     let observers = Observing::start(z, plan.entry.clone())?;
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout().floats);
+    let mut delta: Vec<u8> = Vec::new();
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
     let _ = ready.send(Ok(()));
     let opened = Instant::now();
@@ -196,8 +197,11 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             Ok(Some(sample)) => {
                 let received = Instant::now();
                 // The owner may still send anything: decoding checks every length first.
-                let decoded = decode_payload(sample.payload(), engine.id, engine.layout(), &mut state);
-                let (mut reply, contacts) = engine.run(decoded.map(|h| (h, state.as_slice())));
+                let (mut reply, contacts) = match decode_payload(sample.payload(), engine.id, engine.layout(), &mut state, &mut delta) {
+                    Ok(Payload::Full(h)) => engine.run(Ok((h, state.as_slice()))),
+                    Ok(Payload::Delta(h)) => engine.run_delta(h, &delta),
+                    Err(e) => engine.run(Err(e)),
+                };
                 // zenoh takes ownership of what it sends: one buffer per reply.
                 let mut out = Vec::with_capacity(reply_capacity.min(CONTACTS_HEADER_BYTES + CONTACT_BYTES * contacts.len()));
                 encode_contacts(&mut reply, contacts, &mut out);
@@ -239,9 +243,18 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     }
 }
 
-/// Decodes a frame straight from zenoh's fragments into `state` (resized to the frame's floats),
-/// with the checks of [`lumen_proto::wire::decode_frame`] and no intermediate contiguous copy.
-pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &StateLayout, state: &mut Vec<f32>) -> Result<FrameHeader, (FrameHeader, FrameError)> {
+/// What a frame message carried: every float (decoded into the state) or a delta (its bytes
+/// after the header, gathered into one buffer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Payload {
+    Full(FrameHeader),
+    Delta(FrameHeader),
+}
+
+/// Decodes a frame straight from zenoh's fragments: a full frame's floats into `state` (resized
+/// to the frame's floats), with the checks of [`lumen_proto::wire::decode_frame`] and no
+/// intermediate contiguous copy; a delta frame's bytes after the header into `delta`.
+pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &StateLayout, state: &mut Vec<f32>, delta: &mut Vec<u8>) -> Result<Payload, (FrameHeader, FrameError)> {
     let len = payload.len();
     if len < FRAME_HEADER_BYTES {
         return Err((FrameHeader::default(), FrameError::TooShort { got: len }));
@@ -259,6 +272,14 @@ pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &Sta
     }
     let header = FrameHeader::read(&head).map_err(|e| (FrameHeader::default(), e))?;
     let body = len - FRAME_HEADER_BYTES;
+    if header.is_delta() {
+        // Checked and decoded by the engine, which holds the base.
+        delta.clear();
+        for s in std::iter::once(rest).chain(slices) {
+            delta.extend_from_slice(s);
+        }
+        return Ok(Payload::Delta(header));
+    }
     if !body.is_multiple_of(4) {
         return Err((header, FrameError::Ragged { bytes: body }));
     }
@@ -283,7 +304,7 @@ pub fn decode_payload(payload: &zenoh::bytes::ZBytes, session: u64, layout: &Sta
             *v = f32::from_bits(u32::from_le(v.to_bits()));
         }
     }
-    Ok(header)
+    Ok(Payload::Full(header))
 }
 
 #[cfg(test)]
@@ -302,24 +323,33 @@ mod tests {
         // Cut into fragments at awkward places (inside the header, inside floats), decoded into
         // one state that starts full of stale values (as a session's is after a frame).
         let mut state = vec![f32::NAN; 150];
-        for cuts in [vec![], vec![7], vec![40, 41, 43, 100], vec![3, 39, 45, 46, 47, 333, 600]] {
+        let fragments = |msg: &[u8], cuts: &[usize]| {
             let mut w = zenoh::bytes::ZBytes::writer();
             let mut at = 0;
             for c in cuts.iter().copied().chain(std::iter::once(msg.len())) {
                 w.append(zenoh::bytes::ZBytes::from(msg[at..c].to_vec()));
                 at = c;
             }
-            let z = w.finish();
+            w.finish()
+        };
+        let mut flagged = msg.clone();
+        flagged[6] = lumen_proto::wire::FLAG_DELTA as u8;
+        for cuts in [vec![], vec![7], vec![40, 41, 43, 100], vec![3, 39, 45, 46, 47, 333, 600]] {
+            let z = fragments(&msg, &cuts);
             assert_eq!(z.slices().count(), cuts.len() + 1);
-            let h = decode_payload(&z, 9, &layout, &mut state).unwrap();
+            let Payload::Full(h) = decode_payload(&z, 9, &layout, &mut state, &mut Vec::new()).unwrap() else { panic!("a full frame") };
             assert_eq!((h.frame, state.as_slice()), (4, floats.as_slice()), "cuts {cuts:?}");
+            // The same bytes flagged delta: everything after the header, gathered whole.
+            let mut delta = vec![1, 2];
+            assert!(matches!(decode_payload(&fragments(&flagged, &cuts), 9, &layout, &mut state, &mut delta), Ok(Payload::Delta(h)) if h.frame == 4));
+            assert_eq!(delta, msg[FRAME_HEADER_BYTES..], "cuts {cuts:?}");
         }
         let short = zenoh::bytes::ZBytes::from(msg[..msg.len() - 2].to_vec());
-        assert_eq!(decode_payload(&short, 9, &layout, &mut Vec::new()).unwrap_err().1, FrameError::Ragged { bytes: 598 });
+        assert_eq!(decode_payload(&short, 9, &layout, &mut Vec::new(), &mut Vec::new()).unwrap_err().1, FrameError::Ragged { bytes: 598 });
         // A fresh, empty state is sized to the frame.
         let mut fresh = Vec::new();
-        decode_payload(&zenoh::bytes::ZBytes::from(msg.clone()), 9, &layout, &mut fresh).unwrap();
+        decode_payload(&zenoh::bytes::ZBytes::from(msg.clone()), 9, &layout, &mut fresh, &mut Vec::new()).unwrap();
         assert_eq!(fresh, floats);
-        assert_eq!(decode_payload(&zenoh::bytes::ZBytes::from(vec![1u8; 5]), 9, &layout, &mut Vec::new()).unwrap_err().1, FrameError::TooShort { got: 5 });
+        assert_eq!(decode_payload(&zenoh::bytes::ZBytes::from(vec![1u8; 5]), 9, &layout, &mut Vec::new(), &mut Vec::new()).unwrap_err().1, FrameError::TooShort { got: 5 });
     }
 }

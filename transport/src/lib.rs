@@ -6,9 +6,11 @@
 //! - [`shm`]: iceoryx2 on one machine: the service flavour, the shapes of a session's frame and
 //!   contacts services and their QoS, event ids, node and configuration helpers, and the
 //!   clean-up of a private prefix.
+//! - [`delta`]: delta frames, the rows that changed since a base, coded and decoded.
 //! - [`net`]: zenoh across machines: the session configuration both sides start from.
 //! - [`TransportError`]: what failed, keeping the transport library's own error as source.
 
+pub mod delta;
 pub mod names;
 pub mod net;
 pub mod shm;
