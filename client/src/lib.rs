@@ -27,6 +27,7 @@
 
 mod clock;
 mod control;
+mod deltas;
 mod error;
 pub mod local;
 mod observer;
@@ -35,6 +36,7 @@ mod session;
 mod view;
 
 pub use clock::now_ns;
+pub use deltas::FrameCounts;
 pub use error::Error;
 pub use lumen_proto as proto;
 pub use lumen_proto::session::{DaemonInfo, SessionInfo, StatusReport, Transport};

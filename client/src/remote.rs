@@ -6,7 +6,7 @@ use crate::view::ContactsView;
 use crate::{now_ns, Error, Observed};
 use lumen_proto::auth::Secret;
 use lumen_proto::session::{ControlReply, ControlRequest, DaemonInfo, ErrorCode, SessionInfo, StatusReport, Transport};
-use lumen_proto::wire::{decode_contacts, encode_frame, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, FRAME_HEADER_BYTES};
+use lumen_proto::wire::{decode_contacts, ContactsHeader, FrameHeader, CONTACTS_HEADER_BYTES, FRAME_HEADER_BYTES};
 use lumen_proto::{Contact, StateLayout};
 use lumen_transport::names::{daemon_alive_name, observe_name, session_live_name, AFTER_PARAMETER, CONTROL, DAEMONS_ALIVE, DAEMON_PARAMETER, END_PARAMETER, OBSERVER_PARAMETER};
 use lumen_transport::net::{tagged_queue, ASK_HOLD, CONGESTION, CONTACTS_QUEUE, OBSERVER_CONGESTION};
@@ -276,6 +276,8 @@ pub(crate) struct ZenohSession {
     secret: Secret,
     /// Messages on the contacts key without the daemon's tag, dropped (counted by the gate).
     pub(crate) forged: Arc<AtomicU64>,
+    /// The daemon's base for delta frames, and how frames went out.
+    pub(crate) deltas: crate::deltas::Deltas,
 }
 
 impl ZenohSession {
@@ -303,6 +305,7 @@ impl ZenohSession {
             frame_no: 0,
             reconnects: 0,
             awaited: Default::default(),
+            deltas: crate::deltas::Deltas::new(true),
         })
     }
 
@@ -374,6 +377,7 @@ impl ZenohSession {
             self.state.resize(self.layout.floats, 0.0);
             self.info = info;
             self.reconnects += 1;
+            self.deltas.reset();
         }
         Ok(())
     }
@@ -392,9 +396,9 @@ impl ZenohSession {
         let n = self.frame_no;
         let mut header = FrameHeader::new(self.info.session, n, now_ns(), self.layout.floats, self.layout.bodies.len());
         edit(&mut header);
-        // zenoh owns what it sends: one buffer per frame.
+        // zenoh owns what it sends: one buffer per frame, whole or a delta.
         let mut bytes = Vec::with_capacity(FRAME_HEADER_BYTES + 4 * self.state.len());
-        encode_frame(&header, &self.state, &mut bytes);
+        self.deltas.write(&mut header, &self.state, &mut bytes).map_err(|e| Error::Protocol(format!("coding a delta frame: {e}")))?;
         // The tag proves the frame is the owner's (the daemon drops frames without it, and
         // frames whose number does not go up).
         let tag = self.secret.message_tag(&bytes[..FRAME_HEADER_BYTES], bytes.len());
@@ -402,6 +406,14 @@ impl ZenohSession {
         self.awaited.sent(header.frame);
         self.frame_no += 1;
         Ok(n)
+    }
+
+    /// Notes a reply for the delta frames' base; whether it answers a frame older than the
+    /// newest sent (dropped, counted).
+    fn stale(deltas: &mut crate::deltas::Deltas, awaited: &mut crate::session::Awaited, sample: &Sample) -> bool {
+        let (frame, status) = reply_frame(sample);
+        deltas.answered(frame, status);
+        awaited.stale(frame)
     }
 
     fn accept(&mut self, sample: Sample) -> Result<ContactsView<'_>, Error> {
@@ -413,7 +425,7 @@ impl ZenohSession {
         let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
         loop {
             match ch.replies.try_recv() {
-                Ok(Some(s)) if self.awaited.stale(reply_frame(&s)) => {}
+                Ok(Some(s)) if Self::stale(&mut self.deltas, &mut self.awaited, &s) => {}
                 Ok(Some(s)) => return self.accept(s).map(Some),
                 Ok(None) => return Ok(None),
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),
@@ -427,7 +439,7 @@ impl ZenohSession {
             let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
             let left = deadline.saturating_duration_since(Instant::now());
             match ch.replies.recv_timeout(left.min(lumen_transport::shm::LIVENESS_PERIOD)) {
-                Ok(Some(s)) if self.awaited.stale(reply_frame(&s)) => continue,
+                Ok(Some(s)) if Self::stale(&mut self.deltas, &mut self.awaited, &s) => continue,
                 Ok(Some(s)) => return self.accept(s),
                 Ok(None) => {}
                 Err(e) => return Err(Error::zenoh("receiving contacts", e)),
@@ -451,7 +463,7 @@ impl ZenohSession {
         let Some(ch) = self.channels.as_ref() else { return Err(Error::Disconnected) };
         let next = loop {
             match tokio::time::timeout_at(deadline, ch.replies.recv_async()).await {
-                Ok(Ok(s)) if self.awaited.stale(reply_frame(&s)) => {}
+                Ok(Ok(s)) if Self::stale(&mut self.deltas, &mut self.awaited, &s) => {}
                 other => break other,
             }
         };
@@ -470,9 +482,10 @@ impl ZenohSession {
     }
 }
 
-/// The frame number a reply answers (bytes 16..24 of its header, read across zenoh's
-/// fragments); `u64::MAX` for a message too short to hold one (never stale: decoding refuses it).
-fn reply_frame(sample: &Sample) -> u64 {
+/// The frame number and status of a reply (bytes 16..24 and 6..8 of its header, read across
+/// zenoh's fragments); `(u64::MAX, 0)` for a message too short to hold them (never stale:
+/// decoding refuses it).
+fn reply_frame(sample: &Sample) -> (u64, u16) {
     let mut head = [0u8; 24];
     let mut filled = 0;
     for s in sample.payload().slices() {
@@ -480,10 +493,10 @@ fn reply_frame(sample: &Sample) -> u64 {
         head[filled..filled + n].copy_from_slice(&s[..n]);
         filled += n;
         if filled == head.len() {
-            return u64::from_le_bytes(head[16..24].try_into().expect("8 bytes"));
+            return (u64::from_le_bytes(head[16..24].try_into().expect("8 bytes")), u16::from_le_bytes([head[6], head[7]]));
         }
     }
-    u64::MAX
+    (u64::MAX, 0)
 }
 
 /// An observer over zenoh: a place taken with `observe`, and one ask at a time for the

@@ -110,6 +110,25 @@ impl Session {
         }
     }
 
+    /// Over zenoh, whether frames go as deltas where they can (on by default; the daemon then
+    /// rebuilds each frame on the last one it answered, `proto/README.md` section 2). Turned
+    /// off, every frame goes whole. iceoryx2 frames are shared memory and always go whole; there
+    /// this does nothing.
+    pub fn set_deltas(&mut self, on: bool) {
+        if let Inner::Zenoh(s) = &mut self.inner {
+            s.deltas.on = on;
+        }
+    }
+
+    /// Over zenoh, how many frames went whole and as deltas, and their bytes; zeros on
+    /// iceoryx2 (no bytes travel).
+    pub fn frame_counts(&self) -> crate::FrameCounts {
+        match &self.inner {
+            Inner::Local(_) => crate::FrameCounts::default(),
+            Inner::Zenoh(s) => s.deltas.counts,
+        }
+    }
+
     /// The number the next submitted frame will carry.
     pub fn next_frame_number(&self) -> u64 {
         match &self.inner {

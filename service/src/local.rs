@@ -239,7 +239,7 @@ impl Channels {
         // The frame is read where the client wrote it: no copy. A delta frame's bytes travel as
         // whole floats.
         let header = *sample.user_header();
-        let (reply, contacts) = if header.is_delta() { engine.run_delta(header, bytemuck::cast_slice(sample.payload())) } else { engine.run(Ok((header, sample.payload()))) };
+        let (reply, contacts) = if header.is_delta() { engine.run_delta(header, bytemuck::cast_slice(sample.payload()), None) } else { engine.run(Ok((header, sample.payload()))) };
         let mut service = received.elapsed();
         match self.publisher.loan_slice_uninit(contacts.len()) {
             Ok(loan) => {

@@ -57,6 +57,11 @@ impl Places {
     }
 
     /// Frees `token`'s place.
+    /// Whether any place is live: someone may ask for the next frame.
+    pub fn any(&self, now: Instant) -> bool {
+        self.held.lock().expect("places lock").iter().any(|p| p.live(now))
+    }
+
     pub fn give_back(&self, token: &Token) {
         self.held.lock().expect("places lock").retain(|p| p.token != *token);
     }

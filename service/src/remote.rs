@@ -187,6 +187,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     let mut engine = Engine::new(plan.entry.clone(), plan.echo);
     let mut state: Vec<f32> = Vec::with_capacity(engine.layout().floats);
     let mut delta: Vec<u8> = Vec::new();
+    let mut whole: Vec<u8> = Vec::new();
     let reply_capacity = CONTACTS_HEADER_BYTES + CONTACT_BYTES * info.max_contacts as usize;
     let _ = ready.send(Ok(()));
     let opened = Instant::now();
@@ -197,9 +198,15 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
             Ok(Some(sample)) => {
                 let received = Instant::now();
                 // The owner may still send anything: decoding checks every length first.
-                let (mut reply, contacts) = match decode_payload(sample.payload(), engine.id, engine.layout(), &mut state, &mut delta) {
+                let decoded = decode_payload(sample.payload(), engine.id, engine.layout(), &mut state, &mut delta);
+                let was_delta = matches!(decoded, Ok(Payload::Delta(_)));
+                let (mut reply, contacts) = match decoded {
                     Ok(Payload::Full(h)) => engine.run(Ok((h, state.as_slice()))),
-                    Ok(Payload::Delta(h)) => engine.run_delta(h, &delta),
+                    Ok(Payload::Delta(h)) => {
+                        // Observers get every frame whole; one the daemon could not rebuild, not at all.
+                        let watched = plan.entry.places.any(received);
+                        engine.run_delta(h, &delta, watched.then_some(&mut whole))
+                    }
                     Err(e) => engine.run(Err(e)),
                 };
                 // zenoh takes ownership of what it sends: one buffer per reply.
@@ -212,8 +219,13 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
                     tracing::warn!("session {}: publishing contacts: {e}", engine.id);
                 }
                 engine.record(&reply, service);
-                // For observers, after the client's reply (shared buffers, no copies).
-                observers.publish(reply.frame, sample.payload().clone(), out);
+                // For observers, after the client's reply (shared buffers, no copies; a delta
+                // frame rebuilt whole).
+                if !whole.is_empty() {
+                    observers.publish(reply.frame, ZBytes::from(std::mem::take(&mut whole)), out);
+                } else if !was_delta {
+                    observers.publish(reply.frame, sample.payload().clone(), out);
+                }
             }
             Ok(None) => {}
             Err(e) => return Err(TransportError::zenoh("receiving a frame", e).into()),

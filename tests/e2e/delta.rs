@@ -1,0 +1,232 @@
+//! Delta frames end to end (`proto/README.md`, section 2, "Delta frames"): the real daemon as a
+//! child process, the Rust client sending deltas by itself over zenoh, and raw messages for what
+//! a client written from the page may get wrong.
+
+use lumen_client::{Client, Observed};
+use lumen_detect::Detector;
+use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
+use lumen_proto::auth::Secret;
+use lumen_proto::wire::{encode_frame, FrameHeader, Status, FLAG_DELTA, FLAG_KEEP, FRAME_HEADER_BYTES};
+use lumen_transport::delta::Encoder;
+use std::path::Path;
+use std::time::Duration;
+use zenoh::Wait;
+
+const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
+const WAIT: Duration = Duration::from_secs(3);
+
+fn daemon(tag: &str) -> Daemon {
+    Daemon::start(Path::new(LUMEN), &unique_prefix(tag), Some(free_port()), &[])
+}
+
+/// Frame `k` of a scope moving through a tube whose wall gives where the scope passes: the test
+/// scene's rod, and the spokes of the rings around its tip pushed out a little, differently
+/// each frame (as the colonoscopy's wall moves: a few rows change, most do not).
+fn state(scene: &TestScene, rings: usize, spokes: usize, k: u64) -> Vec<f32> {
+    let mut s = scene.state(k);
+    let at = (k as usize / 3) % (rings - 6);
+    for i in at..at + 6 {
+        for j in 0..spokes {
+            let o = (i * (spokes + 1) + 1 + j) * 3;
+            let push = 1.0 + 0.01 * ((k as f32) * 0.3 + j as f32).sin();
+            for c in 0..3 {
+                s[o + c] *= push;
+            }
+        }
+    }
+    s
+}
+
+/// Over zenoh the client sends deltas by itself: every reply of a 400-frame run is bit for bit
+/// the reply to the same frames sent whole, and an in-process detector's; the frames that went
+/// as deltas are a small fraction of the whole frame's bytes; an observer sees them whole.
+#[test]
+fn deltas_over_zenoh_are_answered_bit_for_bit_as_whole_frames() {
+    let d = daemon("dbits");
+    let (rings, spokes) = (60, 16);
+    let scene = TestScene::new(rings, spokes, 20);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut deltas = client.open_session(&scene.spec).unwrap();
+    let mut whole = client.open_session(&scene.spec).unwrap();
+    whole.set_deltas(false);
+    let mut observer = client.observe(deltas.id()).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
+    let full_bytes = (FRAME_HEADER_BYTES + 4 * deltas.layout().floats) as u64;
+    let mut delta_bytes = Vec::new();
+    let mut observed = 0;
+    for k in 0..400 {
+        let s = state(&scene, rings, spokes, k);
+        let n = deltas.submit_state(&s).unwrap();
+        let before = deltas.frame_counts();
+        let got = deltas.contacts(WAIT).unwrap_or_else(|e| panic!("frame {k}: {e}"));
+        assert_eq!((got.frame(), got.result()), (n, Ok(())), "frame {k}");
+        let got = got.contacts().to_vec();
+        if before.delta > 0 && before.last_bytes < full_bytes {
+            delta_bytes.push(before.last_bytes);
+        }
+        whole.submit_state(&s).unwrap();
+        let want = whole.contacts(WAIT).unwrap();
+        assert!(same_bits(&got, want.contacts()), "frame {k}: the delta's reply differs from the whole frame's");
+        assert!(same_bits(&got, reference.detect(&s).unwrap()), "frame {k}: differs from the in-process detector");
+        // The observer's frame, when it has one, is whole and the client's own.
+        if let Ok(Observed::Frame { header, state }) = observer.next(Duration::from_millis(1)) {
+            assert_eq!(header.flags & FLAG_DELTA, 0);
+            if header.frame == n {
+                assert!(state.iter().zip(&s).all(|(a, b)| a.to_bits() == b.to_bits()), "frame {k}: the observer's state");
+                observed += 1;
+            }
+        }
+    }
+    let counts = deltas.frame_counts();
+    assert_eq!((counts.full, counts.delta), (1, 399), "the first frame whole, then deltas: {counts:?}");
+    assert_eq!(whole.frame_counts().delta, 0);
+    delta_bytes.sort_unstable();
+    let median = delta_bytes[delta_bytes.len() / 2];
+    assert!(median * 10 < full_bytes, "a delta's median {median} bytes against {full_bytes} whole");
+    assert!(observed > 0, "the observer saw none of the client's frames");
+}
+
+/// A raw client of the page: the frame key, its tag, and a sender that numbers frames upward.
+struct Raw {
+    z: zenoh::Session,
+    key: String,
+    secret: Secret,
+    session: u64,
+    floats: usize,
+    next: u64,
+}
+
+impl Raw {
+    /// Sends `body` after a header flagged `flags`; returns the frame's number.
+    fn send(&mut self, flags: u16, body: &[u8]) -> u64 {
+        self.next += 1;
+        let header = FrameHeader { flags, ..FrameHeader::new(self.session, self.next, 0, self.floats, 2) };
+        let mut msg = header.to_bytes().to_vec();
+        msg.extend_from_slice(body);
+        let tag = self.secret.message_tag(&msg[..FRAME_HEADER_BYTES], msg.len());
+        self.z.put(self.key.clone(), msg).attachment(tag.to_vec()).wait().unwrap();
+        self.next
+    }
+
+    fn whole(&mut self, flags: u16, state: &[f32]) -> u64 {
+        let mut msg = Vec::new();
+        encode_frame(&FrameHeader::new(0, 0, 0, 0, 0), state, &mut msg);
+        self.send(flags, &msg[FRAME_HEADER_BYTES..])
+    }
+}
+
+/// A delta against a base the daemon never saw, against one it replaced, cut short or
+/// corrupted: each is answered with its status and no contacts, and leaves the base as it was:
+/// the next good delta is answered as its whole frame.
+#[test]
+fn deltas_against_unknown_bases_and_damaged_deltas_get_their_status_and_change_nothing() {
+    let d = daemon("dbad");
+    let scene = TestScene::new(30, 8, 12);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut session = client.open_session(&scene.spec).unwrap();
+    // The client's own frames first (numbers 0 and 1), then raw ones numbered above them.
+    for k in 0..2 {
+        session.submit_state(&scene.state(k)).unwrap();
+        session.contacts(WAIT).unwrap();
+    }
+    let info = session.info().clone();
+    let z = zenoh::open(lumen_transport::net::config("client", &[], &[d.endpoint()]).unwrap()).wait().unwrap();
+    let mut raw = Raw { z, key: info.frame.clone(), secret: Secret::parse(&info.secret).unwrap(), session: info.session, floats: info.floats as usize, next: 10 };
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
+    let mut enc = Encoder::new().unwrap();
+    let delta = |enc: &mut Encoder, base_frame: u64, base: &[f32], new: &[f32]| {
+        let mut out = Vec::new();
+        enc.encode(base_frame, base, new, &mut out).unwrap();
+        out
+    };
+    let expect = |session: &mut lumen_client::Session, n: u64, status: Status, says: &str| {
+        let r = session.contacts(WAIT).unwrap_or_else(|e| panic!("frame {n}: {e}"));
+        assert_eq!(r.frame(), n);
+        match r.result() {
+            Ok(()) => assert_eq!(status, Status::Ok, "frame {n}"),
+            Err((got, message)) => {
+                assert_eq!(got, status, "frame {n}: {message}");
+                assert!(message.contains(says), "frame {n}: {message}");
+                assert!(r.contacts().is_empty());
+            }
+        }
+        r.contacts().to_vec()
+    };
+    let (s2, s3, s4) = (scene.state(2), scene.state(3), scene.state(4));
+    // The client's frames were kept by the client's own deltas; a base numbered 5 never was.
+    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &delta(&mut enc, 5, &s2, &s3));
+    expect(&mut session, n, Status::NoBase, "delta against frame 5; the session's base is frame 1");
+    // A raw whole frame kept: the base.
+    let base = raw.whole(FLAG_KEEP, &s2);
+    let got = expect(&mut session, base, Status::Ok, "");
+    assert!(same_bits(&got, reference.detect(&s2).unwrap()));
+    // Cut short, corrupted, a wrong count: refused, the base as it was.
+    let good = delta(&mut enc, base, &s2, &s3);
+    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &good[..good.len() - 5]);
+    expect(&mut session, n, Status::BadDelta, "coded bytes but");
+    let mut junk = good.clone();
+    for b in &mut junk[16..] {
+        *b = b.wrapping_mul(31).wrapping_add(7);
+    }
+    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &junk);
+    expect(&mut session, n, Status::BadDelta, "zstd");
+    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &good[..7]);
+    expect(&mut session, n, Status::BadDelta, "shorter than its 16-byte delta header");
+    let n = raw.send(FLAG_DELTA, &good);
+    let got = expect(&mut session, n, Status::Ok, "");
+    assert!(same_bits(&got, reference.detect(&s3).unwrap()));
+    // Not kept: the next delta is still against the raw base, and kept it replaces the base.
+    let kept = raw.send(FLAG_DELTA | FLAG_KEEP, &delta(&mut enc, base, &s2, &s4));
+    let got = expect(&mut session, kept, Status::Ok, "");
+    assert!(same_bits(&got, reference.detect(&s4).unwrap()));
+    // A delta against the replaced base: refused, naming the base held.
+    let n = raw.send(FLAG_DELTA, &delta(&mut enc, base, &s2, &s3));
+    expect(&mut session, n, Status::NoBase, &format!("the session's base is frame {kept}"));
+    let n = raw.send(FLAG_DELTA, &delta(&mut enc, kept, &s4, &s3));
+    let got = expect(&mut session, n, Status::Ok, "");
+    assert!(same_bits(&got, reference.detect(&s3).unwrap()));
+}
+
+/// A daemon restarted mid-run: the client's session reopens on the new daemon, which holds no
+/// base; the client's first frame there goes whole and every reply stays right.
+#[test]
+fn after_a_daemon_restart_the_clients_deltas_start_again_from_a_whole_frame() {
+    let prefix = unique_prefix("drestart");
+    let port = free_port();
+    let d = Daemon::start(Path::new(LUMEN), &prefix, Some(port), &[]);
+    let scene = TestScene::new(30, 8, 12);
+    let client = Client::zenoh(&d.endpoint()).unwrap();
+    let mut session = client.open_session(&scene.spec).unwrap();
+    let mut reference = Detector::new(&scene.spec.validate().unwrap());
+    for k in 0..20 {
+        session.submit_state(&scene.state(k)).unwrap();
+        assert!(same_bits(session.contacts(WAIT).unwrap().contacts(), reference.detect(&scene.state(k)).unwrap()));
+    }
+    let before = session.frame_counts();
+    assert_eq!((before.full, before.delta), (1, 19));
+    d.terminate();
+    let d = Daemon::start(Path::new(LUMEN), &prefix, Some(port), &[]);
+    let mut answered = 0;
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    for k in 20.. {
+        if answered == 10 || std::time::Instant::now() > deadline {
+            break;
+        }
+        // Refused (`Disconnected`) until the client reaches the new daemon and reopens.
+        if session.submit_state(&scene.state(k)).is_err() {
+            std::thread::sleep(Duration::from_millis(100));
+            continue;
+        }
+        if let Ok(r) = session.contacts(WAIT) {
+            assert_eq!(r.result(), Ok(()), "frame {k}");
+            let fresh = Detector::new(&scene.spec.validate().unwrap()).detect(&scene.state(k)).unwrap().to_vec();
+            assert!(same_bits(r.contacts(), &fresh), "frame {k} after the restart");
+            answered += 1;
+        }
+    }
+    assert_eq!(answered, 10, "the session never came back");
+    let after = session.frame_counts();
+    assert_eq!(session.reconnects(), 1);
+    assert!(after.full >= before.full + 1 && after.delta >= before.delta + 8, "{before:?} then {after:?}");
+    drop(d);
+}
