@@ -227,6 +227,6 @@ fn after_a_daemon_restart_the_clients_deltas_start_again_from_a_whole_frame() {
     assert_eq!(answered, 10, "the session never came back");
     let after = session.frame_counts();
     assert_eq!(session.reconnects(), 1);
-    assert!(after.full >= before.full + 1 && after.delta >= before.delta + 8, "{before:?} then {after:?}");
+    assert!(after.full > before.full && after.delta >= before.delta + 8, "{before:?} then {after:?}");
     drop(d);
 }
