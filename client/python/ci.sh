@@ -23,7 +23,7 @@ fi
 # The venv's tools first on PATH: maturin's build backend runs the `maturin` executable by name.
 export PATH="$venv/bin:$PATH"
 "$venv/bin/python" -m pip install --quiet --upgrade pip
-"$venv/bin/python" -m pip install --quiet "maturin>=1.9.4,<2" numpy pytest
+"$venv/bin/python" -m pip install --quiet "maturin>=1.9.4,<2" numpy pytest zstandard
 # matplotlib is only for the example; its absence is not a failure.
 "$venv/bin/python" -m pip install --quiet matplotlib || echo "ci.sh: matplotlib not installed (only examples/insertion.py needs it)"
 echo "ci.sh: building and installing lumen (dev profile)"
