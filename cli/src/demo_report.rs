@@ -43,6 +43,9 @@ pub struct Summary {
     pub rtt_p99_us: f64,
     /// Most contacts in a frame.
     pub contacts_max: u32,
+    /// Bytes of a frame on the wire, median and most (zenoh; 0 over iceoryx2).
+    pub wire_bytes_p50: f64,
+    pub wire_bytes_max: u64,
     /// Wall time of the run from the session's opening, s.
     pub wall_s: f64,
     /// Why the simulation stopped early, if it did.
@@ -90,6 +93,8 @@ impl Summary {
             rtt_p50_us: f.rtt_p50_us,
             rtt_p99_us: f.rtt_p99_us,
             contacts_max: f.contacts_max,
+            wire_bytes_p50: f.wire_bytes_p50,
+            wire_bytes_max: f.wire_bytes_max,
             wall_s,
             sound: failures.is_empty(),
             error,
@@ -129,7 +134,7 @@ impl Summary {
         );
         s += &format!("**Verdict: {}**\n\n", if self.sound { "sound".to_string() } else { format!("not sound — {}", self.failures.join("; ")) });
         s += "| figure | value |\n|---|---|\n";
-        let rows = [
+        let mut rows = vec![
             ("frames (of planned)", format!("{} ({})", self.frames, self.frames_planned)),
             ("escaped samples, most at the end of a frame", self.escaped_samples_max.to_string()),
             ("frames with escaped samples", self.escaped_frames.to_string()),
@@ -141,6 +146,9 @@ impl Summary {
             ("contacts, most in a frame", self.contacts_max.to_string()),
             ("wall time", format!("{:.1} s", self.wall_s)),
         ];
+        if self.wire_bytes_max > 0 {
+            rows.push(("a frame on the wire, median / most", format!("{:.1} / {:.1} KiB", self.wire_bytes_p50 / 1024.0, self.wire_bytes_max as f64 / 1024.0)));
+        }
         for (k, v) in rows {
             s += &format!("| {k} | {v} |\n");
         }

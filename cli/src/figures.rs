@@ -29,6 +29,9 @@ pub struct FrameRow {
     pub escaped: u32,
     /// Whether the frame produced a non-finite value (the run stops there).
     pub nan: bool,
+    /// Bytes of the frame's message on the wire (zenoh: whole or a delta); 0 over iceoryx2.
+    #[serde(default)]
+    pub wire_bytes: u64,
 }
 
 /// The figures of a run so far.
@@ -56,6 +59,11 @@ pub struct RunFigures {
     pub escaped_frames: u64,
     /// Frames that produced a non-finite value.
     pub nan_frames: u64,
+    /// Bytes of a frame's message on the wire, median and most (0 over iceoryx2).
+    #[serde(default)]
+    pub wire_bytes_p50: f64,
+    #[serde(default)]
+    pub wire_bytes_max: u64,
 }
 
 /// A line of `lumen sim`'s stdout after the first.
@@ -77,6 +85,7 @@ pub enum SimLine {
 pub struct Tally {
     figures: RunFigures,
     rtt_us: Vec<f64>,
+    wire_bytes: Vec<f64>,
     physics_us: f64,
 }
 
@@ -103,6 +112,10 @@ impl Tally {
         if !r.nan {
             self.rtt_us.push(r.rtt_us);
         }
+        if r.wire_bytes > 0 {
+            self.wire_bytes.push(r.wire_bytes as f64);
+            f.wire_bytes_max = f.wire_bytes_max.max(r.wire_bytes);
+        }
     }
 
     /// The figures, with the rate over `wall_s` seconds of wall time.
@@ -113,6 +126,7 @@ impl Tally {
         let mut v = self.rtt_us.clone();
         f.rtt_p50_us = percentile(&mut v, 0.5);
         f.rtt_p99_us = percentile(&mut v, 0.99);
+        f.wire_bytes_p50 = percentile(&mut self.wire_bytes.clone(), 0.5);
         f
     }
 }

@@ -195,6 +195,7 @@ pub fn run(args: SimArgs) -> CliResult<std::process::ExitCode> {
                 max_penetration_mm: r.max_penetration_mm,
                 escaped: r.escaped,
                 nan: false,
+                wire_bytes: world.source().session().frame_counts().last_bytes,
             },
             Err(SimError::NonFinite { frame }) => {
                 failure = Some(CliError::NonFinite { frame });
@@ -233,6 +234,16 @@ pub fn run(args: SimArgs) -> CliResult<std::process::ExitCode> {
         "lumen sim: {} frames, {:.0} frames/s, round trip p50 {:.0} us p99 {:.0} us, contacts at most {}, max penetration {:.3} mm, escaped samples at most {}, NaN frames {}",
         figures.frames, figures.physics_fps, figures.rtt_p50_us, figures.rtt_p99_us, figures.contacts_max, figures.max_penetration_mm, figures.escaped_samples_max, figures.nan_frames
     );
+    let sent = world.source().session().frame_counts();
+    if sent.bytes > 0 {
+        eprintln!(
+            "lumen sim: frames on the wire: median {:.1} KiB, most {:.1} KiB ({} whole, {} as deltas)",
+            figures.wire_bytes_p50 / 1024.0,
+            figures.wire_bytes_max as f64 / 1024.0,
+            sent.full,
+            sent.delta
+        );
+    }
     match (interrupted, failure) {
         (Some(why), _) => {
             eprintln!("lumen sim: {why}");
