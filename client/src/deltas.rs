@@ -31,9 +31,19 @@ pub(crate) struct Deltas {
     encoder: Option<Encoder>,
     base: Vec<f32>,
     base_frame: Option<u64>,
-    pending: Option<u64>,
+    /// The kept frame awaiting its reply, and how to make it the base when the reply says 0.
+    pending: Option<(u64, Pending)>,
     pending_state: Vec<f32>,
     pub(crate) counts: FrameCounts,
+}
+
+/// Where a kept frame's state is while its reply is awaited.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pending {
+    /// Copied whole into `pending_state` (a whole frame).
+    Whole,
+    /// In the encoder's last delta, against the base (applied to it on the reply).
+    Delta,
 }
 
 impl Deltas {
@@ -53,14 +63,17 @@ impl Deltas {
             self.base_frame = None;
         }
         match self.pending {
-            Some(p) if frame == p => {
+            Some((p, how)) if frame == p => {
                 if status == 0 {
-                    std::mem::swap(&mut self.base, &mut self.pending_state);
+                    match how {
+                        Pending::Whole => std::mem::swap(&mut self.base, &mut self.pending_state),
+                        Pending::Delta => self.encoder.as_ref().expect("a delta was encoded").apply_last(&mut self.base),
+                    }
                     self.base_frame = Some(p);
                 }
                 self.pending = None;
             }
-            Some(p) if frame > p => {
+            Some((p, _)) if frame > p => {
                 // Its reply never came (skipped, lost, or dropped unread): kept or not, unknown.
                 self.pending = None;
                 self.base_frame = None;
@@ -91,7 +104,9 @@ impl Deltas {
                 if out.len() < full {
                     header.flags = FLAG_DELTA | FLAG_KEEP;
                     out[..FRAME_HEADER_BYTES].copy_from_slice(&header.to_bytes());
-                    self.keep(header.frame, state);
+                    // No whole copy: the encoder holds what changed until the reply comes
+                    // (no other delta is encoded while this one waits).
+                    self.pending = Some((header.frame, Pending::Delta));
                     self.sent(out.len(), true);
                     return Ok(());
                 }
@@ -106,7 +121,7 @@ impl Deltas {
     }
 
     fn keep(&mut self, frame: u64, state: &[f32]) {
-        self.pending = Some(frame);
+        self.pending = Some((frame, Pending::Whole));
         self.pending_state.clear();
         self.pending_state.extend_from_slice(state);
     }

@@ -278,6 +278,8 @@ pub(crate) struct ZenohSession {
     pub(crate) forged: Arc<AtomicU64>,
     /// The daemon's base for delta frames, and how frames went out.
     pub(crate) deltas: crate::deltas::Deltas,
+    /// An emulated link: its rate in bytes a second, and when it is free again.
+    pub(crate) link: Option<(u64, Instant)>,
 }
 
 impl ZenohSession {
@@ -306,6 +308,7 @@ impl ZenohSession {
             reconnects: 0,
             awaited: Default::default(),
             deltas: crate::deltas::Deltas::new(true),
+            link: None,
         })
     }
 
@@ -402,10 +405,23 @@ impl ZenohSession {
         // The tag proves the frame is the owner's (the daemon drops frames without it, and
         // frames whose number does not go up).
         let tag = self.secret.message_tag(&bytes[..FRAME_HEADER_BYTES], bytes.len());
+        self.wait_for_link(bytes.len());
         self.channels.as_ref().expect("open").publisher.put(bytes).attachment(tag.to_vec()).wait().map_err(|e| Error::zenoh("sending the frame", e))?;
         self.awaited.sent(header.frame);
         self.frame_no += 1;
         Ok(n)
+    }
+
+    /// With an emulated link, waits until a message of `bytes` would have crossed it: a token
+    /// bucket of one message, so back-to-back frames queue behind each other as on a real link.
+    fn wait_for_link(&mut self, bytes: usize) {
+        let Some((rate, free)) = &mut self.link else { return };
+        let start = (*free).max(Instant::now());
+        *free = start + Duration::from_secs_f64(bytes as f64 / *rate as f64);
+        // Spun, not slept: a sleep would add the scheduler's wake-up to every frame.
+        while Instant::now() < *free {
+            std::hint::spin_loop();
+        }
     }
 
     /// Notes a reply for the delta frames' base; whether it answers a frame older than the

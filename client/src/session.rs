@@ -120,6 +120,15 @@ impl Session {
         }
     }
 
+    /// Over zenoh, emulates a link of `bytes_per_second` for benchmarks: each frame is held back
+    /// for as long as its bytes take to cross such a link after the previous frame's
+    /// (`None`: no emulation, the default). Replies are not held back. Nothing on iceoryx2.
+    pub fn emulate_link(&mut self, bytes_per_second: Option<u64>) {
+        if let Inner::Zenoh(s) = &mut self.inner {
+            s.link = bytes_per_second.filter(|&r| r > 0).map(|r| (r, std::time::Instant::now()));
+        }
+    }
+
     /// Over zenoh, how many frames went whole and as deltas, and their bytes; zeros on
     /// iceoryx2 (no bytes travel).
     pub fn frame_counts(&self) -> crate::FrameCounts {

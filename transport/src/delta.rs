@@ -86,6 +86,31 @@ fn unzigzag(z: u32) -> u32 {
     (z >> 1) ^ 0u32.wrapping_sub(z & 1)
 }
 
+/// Adds the coded differences in `raw` (bitmap and planes of `count` floats, for a state of
+/// `rows` rows) to `state`, saving what it overwrites in `undo` when given.
+fn apply(raw: &[u8], rows: usize, count: usize, state: &mut [f32], mut undo: Option<&mut Vec<u32>>) {
+    let (map, planes) = raw.split_at(bitmap_bytes(rows));
+    let (low, rest) = planes.split_at(count);
+    let (second, rest) = rest.split_at(count);
+    let (third, high) = rest.split_at(count);
+    let mut zs = low.iter().zip(second).zip(third).zip(high).map(|(((a, b), c), d)| unzigzag(u32::from_le_bytes([*a, *b, *c, *d])));
+    let state = bits_mut(state);
+    for (byte_at, &byte) in map.iter().enumerate() {
+        let mut marks = byte;
+        while marks != 0 {
+            let r = byte_at * 8 + marks.trailing_zeros() as usize;
+            marks &= marks - 1;
+            for v in &mut state[3 * r..3 * r + 3] {
+                let d = zs.next().expect("one z per changed float");
+                if let Some(u) = undo.as_deref_mut() {
+                    u.push(*v);
+                }
+                *v = v.wrapping_add(d);
+            }
+        }
+    }
+}
+
 /// Writes deltas; keeps its buffers and zstd context from one frame to the next.
 pub struct Encoder {
     compressor: zstd::bulk::Compressor<'static>,
@@ -141,6 +166,12 @@ impl Encoder {
         let header = DeltaHeader { base: base_frame, changed: (count / 3) as u32, encoded: encoded as u32 };
         out[at..at + DELTA_HEADER_BYTES].copy_from_slice(&header.to_bytes());
         Ok(header)
+    }
+
+    /// Turns `base`, the base of the last [`Encoder::encode`], into the state it encoded: a
+    /// client's copy of the daemon's base follows a kept delta without copying the whole state.
+    pub fn apply_last(&self, base: &mut [f32]) {
+        apply(&self.raw, base.len() / 3, self.zs.len(), base, None);
     }
 }
 
@@ -200,28 +231,9 @@ impl Decoder {
     /// the new state; what it overwrote is kept for [`Decoder::undo`].
     pub fn apply(&mut self, state: &mut [f32]) {
         debug_assert_eq!(state.len(), 3 * self.rows);
-        let bitmap = bitmap_bytes(self.rows);
-        let (map, planes) = self.raw.split_at(bitmap);
-        let n = self.count;
-        let (low, rest) = planes.split_at(n);
-        let (second, rest) = rest.split_at(n);
-        let (third, high) = rest.split_at(n);
-        let mut zs = low.iter().zip(second).zip(third).zip(high).map(|(((a, b), c), d)| unzigzag(u32::from_le_bytes([*a, *b, *c, *d])));
         self.undo.clear();
-        self.undo.reserve(n);
-        let state = bits_mut(state);
-        for (byte_at, &byte) in map.iter().enumerate() {
-            let mut marks = byte;
-            while marks != 0 {
-                let r = byte_at * 8 + marks.trailing_zeros() as usize;
-                marks &= marks - 1;
-                for v in &mut state[3 * r..3 * r + 3] {
-                    let d = zs.next().expect("read checked one z per changed float");
-                    self.undo.push(*v);
-                    *v = v.wrapping_add(d);
-                }
-            }
-        }
+        self.undo.reserve(self.count);
+        apply(&self.raw, self.rows, self.count, state, Some(&mut self.undo));
     }
 
     /// Puts back in `state` what the last [`Decoder::apply`] overwrote.
@@ -272,6 +284,10 @@ mod tests {
         assert!(state.iter().zip(&new).all(|(a, b)| a.to_bits() == b.to_bits()));
         d.undo(&mut state);
         assert!(state.iter().zip(&base).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let mut enc = Encoder::new().unwrap();
+        enc.encode(7, &base, &new, &mut Vec::new()).unwrap();
+        enc.apply_last(&mut state);
+        assert!(state.iter().zip(&new).all(|(a, b)| a.to_bits() == b.to_bits()));
         // Padding to whole floats is ignored; an unchanged state is a delta of no rows.
         let mut padded = out[1..].to_vec();
         padded.extend([0, 0, 0]);

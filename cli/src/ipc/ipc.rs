@@ -2,6 +2,8 @@
 //! scene, on each transport, back to back, paced at 1 kHz and with four paced sessions at once;
 //! each against a bare echo of the same payload over the same transport (no detection),
 //! measured in the same run in alternating blocks of frames, so both see the same machine.
+//! Over zenoh each mode runs with whole frames and with delta frames, and paced at 1 kHz
+//! behind an emulated 1 Gbit/s link too (`Session::emulate_link`).
 //!
 //! The daemon is the real `lumen serve`, started as a child process with a private iceoryx2
 //! prefix and zenoh port; the clients are threads of this process.
@@ -45,6 +47,13 @@ pub struct IpcRun {
     pub frames: u64,
     /// Frames without their own reply (timed out, skipped or refused).
     pub lost_frames: u64,
+    /// `whole` or `delta`: how frames went (iceoryx2: whole, in shared memory).
+    pub frame: String,
+    /// Median bytes of a frame's message on the wire (0 over iceoryx2: nothing is copied).
+    pub wire_bytes_p50: f64,
+    /// The client loop's frames a second over the measured frames (the detecting and the echo
+    /// session's together; paced, 1,000 when the loop holds 1 kHz).
+    pub rate_hz: f64,
 }
 
 /// Everything `ipc.json` holds.
@@ -75,12 +84,15 @@ impl IpcReport {
             if self.quick { ", --quick" } else { "" },
             if self.think_us > 0 { format!(", the client working {} us between a reply and its next frame back to back", self.think_us) } else { String::new() }
         );
-        s += "| transport | mode | p50 | p99 | p99.9 | echo p50 | echo p99 | detect | detect p99 | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        s += "| transport | mode | frame | KiB on the wire | rate Hz | p50 | p99 | p99.9 | echo p50 | echo p99 | detect | detect p99 | daemon p50 | p50 - echo - detect | frames | lost |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for r in &self.runs {
             s += &format!(
-                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
+                "| {} | {} | {} | {} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
                 r.transport,
                 r.mode,
+                r.frame,
+                if r.wire_bytes_p50 > 0.0 { format!("{:.1}", r.wire_bytes_p50 / 1024.0) } else { "shared memory".into() },
+                r.rate_hz,
                 r.p50_us,
                 r.p99_us,
                 r.p999_us,
@@ -118,6 +130,18 @@ pub enum Mode {
     Paced1kHz,
 }
 
+/// How a measurement's frames travel over zenoh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Wire {
+    /// Delta frames (else whole).
+    pub deltas: bool,
+    /// An emulated link's rate, bytes a second (`None`: loopback as it is).
+    pub link: Option<u64>,
+}
+
+/// 1 Gbit/s in bytes a second.
+const GIGABIT: u64 = 125_000_000;
+
 /// The benchmark's plan.
 pub struct IpcBench {
     quick: bool,
@@ -143,6 +167,10 @@ struct Samples {
     lost: u64,
     /// Daemon-side service-time p50 of each session measured, us.
     daemon_p50_us: Vec<f64>,
+    /// Bytes of each measured frame's message on the wire (zenoh).
+    wire_bytes: Vec<u64>,
+    /// Frames measured a second, per session.
+    rate_hz: Vec<f64>,
 }
 
 impl Samples {
@@ -151,6 +179,8 @@ impl Samples {
         self.detect_ns.extend(o.detect_ns);
         self.lost += o.lost;
         self.daemon_p50_us.extend(o.daemon_p50_us);
+        self.wire_bytes.extend(o.wire_bytes);
+        self.rate_hz.extend(o.rate_hz);
     }
 }
 
@@ -234,32 +264,54 @@ impl IpcBench {
             args.push("--insecure".into()); // told to listen beyond loopback, for a measurement
         }
         let _daemon = DaemonChild::spawn(&exe, &args)?;
-        let (spec, states) = if self.stand_in { scene::stand_in(FRAMES) } else { scene::generated(FRAMES) };
+        let (spec, states) = if self.stand_in { scene::stand_in(FRAMES) } else { colonoscopy(FRAMES)? };
         let layout = StateLayout::of(&spec);
         let scene_name = if self.stand_in {
             format!("stand-in colon: tube {} rings x {} spokes + rod of {} points", scene::RINGS, scene::SPOKES, scene::ROD_POINTS)
         } else {
-            format!("lumen-scene generated colonoscopy (seed 1): colon {} rings x 32 spokes, scope of 160 points inserted 1 mm per frame", spec.bodies[0].points())
+            format!(
+                "`lumen demo`'s colonoscopy (generated colon, seed 1: {} rings x 32 spokes, the scripted scope of 160 points, a wall that gives), frames {} to {}",
+                spec.bodies[0].points(),
+                COLONOSCOPY_FROM,
+                COLONOSCOPY_FROM + FRAMES as u64 - 1
+            )
         };
         let states = Arc::new(states);
         let n = self.frames.unwrap_or(if self.quick { 1500 } else { 10_000 });
-        let (b2b, paced) = (n, n);
         let mut runs = Vec::new();
-        let bar = indicatif::ProgressBar::new((self.transports.len() * 6) as u64);
+        let plan = |t: Transport| -> Vec<(&'static str, Mode, Wire)> {
+            let whole = Wire::default();
+            let delta = Wire { deltas: true, link: None };
+            match t {
+                Transport::Iceoryx2 => vec![("back-to-back", Mode::BackToBack, whole), ("paced-1khz", Mode::Paced1kHz, whole)],
+                Transport::Zenoh => vec![
+                    ("back-to-back", Mode::BackToBack, whole),
+                    ("back-to-back", Mode::BackToBack, delta),
+                    ("paced-1khz", Mode::Paced1kHz, whole),
+                    ("paced-1khz", Mode::Paced1kHz, delta),
+                    ("paced-1khz, 1 Gbit/s link", Mode::Paced1kHz, Wire { link: Some(GIGABIT), ..whole }),
+                    ("paced-1khz, 1 Gbit/s link", Mode::Paced1kHz, Wire { link: Some(GIGABIT), ..delta }),
+                ],
+            }
+        };
+        let total: usize = self.transports.iter().map(|&t| plan(t).len() + 1).sum();
+        let bar = indicatif::ProgressBar::new((total * 2) as u64);
         bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("template"));
         for &t in &self.transports {
-            for (mode, n) in [(Mode::BackToBack, b2b), (Mode::Paced1kHz, paced)] {
-                bar.set_message(format!("{t} {mode:?}"));
+            for (name, mode, wire) in plan(t) {
+                bar.set_message(format!("{t} {name}{}", if wire.deltas { " delta" } else { "" }));
                 let client = self.client(t)?;
                 let think = if mode == Mode::BackToBack { self.think } else { Duration::ZERO };
-                let (det, echo) = measure(&client, &spec, &states, mode, n, think)?;
+                let (det, echo) = measure(&client, &spec, &states, mode, n, think, wire)?;
                 bar.inc(2);
-                runs.push(summarise(t, if mode == Mode::BackToBack { "back-to-back" } else { "paced-1khz" }, det, echo));
+                runs.push(summarise(t, name, wire, det, echo));
             }
+            // Four sessions as a client uses them by default: deltas over zenoh.
+            let wire = Wire { deltas: t == Transport::Zenoh, link: None };
             bar.set_message(format!("{t} 4 sessions"));
-            let (det, echo) = self.sessions(t, 4, &spec, &states, paced / 2)?;
+            let (det, echo) = self.sessions(t, 4, &spec, &states, n / 2, wire)?;
             bar.inc(2);
-            runs.push(summarise(t, "4-sessions", det, echo));
+            runs.push(summarise(t, "4-sessions", wire, det, echo));
         }
         bar.set_message("the machine's wake-up");
         let wake = wake::floor(n).map_err(CliError::WakeFloor)?;
@@ -285,7 +337,7 @@ impl IpcBench {
     /// `k` sessions at 1 kHz each at once, one client thread per session, each alternating
     /// with an echo session of its own in the same blocks ([`BLOCK`]): the detection and the echo
     /// of all `k` take turns together. Returns (detection, echo).
-    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize) -> CliResult<(Samples, Samples)> {
+    fn sessions(&self, t: Transport, k: usize, spec: &SceneSpec, states: &Arc<Vec<Vec<f32>>>, frames: usize, wire: Wire) -> CliResult<(Samples, Samples)> {
         let start = Instant::now() + Duration::from_millis(300);
         let handles: Vec<_> = (0..k)
             .map(|_| {
@@ -295,7 +347,7 @@ impl IpcBench {
                     let me = IpcBench { quick: true, stand_in: false, frames: None, think: Duration::ZERO, transports: vec![], prefix, endpoint };
                     let client = me.client(t)?;
                     std::thread::sleep(start.saturating_duration_since(Instant::now()));
-                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, Duration::ZERO)
+                    measure(&client, &spec, &states, Mode::Paced1kHz, frames, Duration::ZERO, wire)
                 })
             })
             .collect();
@@ -309,8 +361,13 @@ impl IpcBench {
     }
 }
 
-fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> IpcRun {
+fn summarise(t: Transport, mode: &str, wire: Wire, mut det: Samples, mut echo: Samples) -> IpcRun {
+    let mut bytes: Vec<u64> = std::mem::take(&mut det.wire_bytes);
+    bytes.sort_unstable();
     IpcRun {
+        frame: if wire.deltas { "delta" } else { "whole" }.into(),
+        wire_bytes_p50: bytes.get(bytes.len() / 2).copied().unwrap_or(0) as f64,
+        rate_hz: det.rate_hz.iter().fold(0.0, |a, b| a + b) / det.rate_hz.len().max(1) as f64,
         transport: t.to_string(),
         mode: mode.into(),
         p50_us: quantile_us(&mut det.rtt_ns, 0.5),
@@ -331,6 +388,26 @@ fn summarise(t: Transport, mode: &str, mut det: Samples, mut echo: Samples) -> I
 /// Frames precomputed; played forwards then backwards so the motion stays continuous.
 const FRAMES: usize = 64;
 
+/// The first frame of the colonoscopy the bench plays: mid-procedure, the scope deep in the
+/// sigmoid and pressing the wall.
+const COLONOSCOPY_FROM: u64 = 1500;
+
+/// Frames `COLONOSCOPY_FROM ..` of `lumen demo`'s colonoscopy (the generated colon, the
+/// scripted scope, the wall that gives), run in this process with the default detection.
+fn colonoscopy(frames: usize) -> CliResult<(SceneSpec, Vec<Vec<f32>>)> {
+    let colon = lumen_sim::setup::colon(lumen_scene::ColonKind::Generated, 1, None).map_err(|source| CliError::Colon { scene: "generated", source })?;
+    let mut world = lumen_sim::World::in_process(&colon, lumen_sim::SimConfig::default())?;
+    for _ in 1..COLONOSCOPY_FROM {
+        world.step()?;
+    }
+    let mut states = Vec::with_capacity(frames);
+    for _ in 0..frames {
+        world.step()?;
+        states.push(world.source().state().to_vec());
+    }
+    Ok((world.spec().clone(), states))
+}
+
 fn state_index(k: usize) -> usize {
     let p = k % (2 * FRAMES - 2);
     if p < FRAMES {
@@ -350,8 +427,13 @@ const BLOCK: usize = 100;
 /// spec, in alternating blocks after a warm-up of each, waiting for each reply; paced, one frame
 /// per millisecond whichever session it goes to; `think` spent busy before each frame.
 /// Returns (detection, echo).
-fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize, think: Duration) -> Result<(Samples, Samples), ClientError> {
+fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, frames: usize, think: Duration, wire: Wire) -> Result<(Samples, Samples), ClientError> {
     let mut sessions: [Session; 2] = [client.open_session(spec)?, client.open_echo_session(spec)?];
+    for s in &mut sessions {
+        s.set_deltas(wire.deltas);
+        s.emulate_link(wire.link);
+    }
+    let mut measured_from: [Option<Instant>; 2] = [None; 2];
     let warm = (frames / 10).max(50);
     let mut out: [Samples; 2] = std::array::from_fn(|_| Samples { rtt_ns: Vec::with_capacity(frames), detect_ns: Vec::with_capacity(frames), ..Samples::default() });
     // Frames each session has submitted: its own sequence, so its scope moves continuously.
@@ -375,6 +457,10 @@ fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, f
         session.frame()?.copy_from_slice(&states[state_index(k)]);
         let n = session.submit()?;
         let measured = k >= warm;
+        if measured {
+            measured_from[which].get_or_insert_with(Instant::now);
+            out.wire_bytes.push(session.frame_counts().last_bytes);
+        }
         loop {
             match session.contacts(Duration::from_secs(1)) {
                 Ok(reply) if reply.frame() < n => continue, // a late answer to an earlier frame
@@ -398,6 +484,11 @@ fn measure(client: &Client, spec: &SceneSpec, states: &[Vec<f32>], mode: Mode, f
                 Err(e) => return Err(e),
             }
         }
+    }
+    // The loop's rate over the measured frames of both sessions (they take turns on its
+    // ticks): paced, 1,000 a second when the loop holds 1 kHz.
+    if let Some(from) = measured_from.iter().flatten().min() {
+        out[0].rate_hz.push((2 * frames) as f64 / from.elapsed().as_secs_f64().max(1e-9));
     }
     // The daemon keeps its last 1024 service times: all of them from the measured frames.
     let status = client.status()?;
