@@ -102,6 +102,12 @@ pub enum CliError {
     /// The daemon of `lumen bench ipc` did not say it was ready.
     #[error("the daemon did not get ready within {} s", limit.as_secs())]
     DaemonNotReady { limit: Duration },
+    /// A thread of this process could not be started.
+    #[error("starting the {name} thread: {source}")]
+    ThreadSpawn { name: &'static str, source: std::io::Error },
+    /// A thread of this process panicked (its message is above).
+    #[error("the {name} thread panicked")]
+    ThreadPanicked { name: &'static str },
     /// A client thread of `lumen bench ipc` panicked.
     #[error("a session thread panicked")]
     SessionThreadPanicked,

@@ -1,5 +1,5 @@
 //! A recording held for playback (`lumen view run.mcap`): every frame message kept as it is in
-//! the file (a key frame or the floats that changed), and the decoded state every
+//! the file (a key frame or what changed since the frame before), and the decoded state every
 //! [`CHECKPOINT`] frames, so that going to any frame decodes at most `CHECKPOINT - 1` deltas
 //! and playing forward decodes one.
 //!
@@ -26,8 +26,8 @@ pub struct Playback {
     /// The recording (spec, session, replies by frame number).
     pub recording: Recording,
     frames: Vec<Stored>,
-    /// `checkpoints[k]`: the state of frame `k * CHECKPOINT`.
-    checkpoints: Vec<Vec<f32>>,
+    /// `checkpoints[k]`: the header and state of frame `k * CHECKPOINT`.
+    checkpoints: Vec<(FrameHeader, Vec<f32>)>,
 }
 
 /// Where a player is: the index of the frame `state` holds.
@@ -58,10 +58,10 @@ impl Playback {
                 continue;
             }
             let index = frames.len();
-            recording::decode_frame(&m.data, &mut state)
+            let header = recording::decode_frame(&m.data, &mut state)
                 .map_err(|source| RecordingError::NotLumen { path: path.to_owned(), what: BadMessage::Frame { index: Some(index as u64), sequence: m.sequence, source } })?;
             if index.is_multiple_of(CHECKPOINT) {
-                checkpoints.push(state.clone());
+                checkpoints.push((header, state.clone()));
             }
             frames.push(Stored { log_time_ns: m.log_time, bytes: m.data.into_owned() });
         }
@@ -97,10 +97,13 @@ impl Playback {
             Some(at) if at <= index && at / CHECKPOINT == index / CHECKPOINT => at + 1,
             Some(at) if at + 1 == index => index,
             _ => {
+                // The checkpoint is that frame decoded: a delta is against the frame before, so
+                // it is not decoded again.
                 let k = index / CHECKPOINT;
+                let (header, state) = &self.checkpoints[k];
                 cursor.state.clear();
-                cursor.state.extend_from_slice(&self.checkpoints[k]);
-                cursor.header = Some(self.decode(k * CHECKPOINT, &mut cursor.state)?);
+                cursor.state.extend_from_slice(state);
+                cursor.header = Some(*header);
                 k * CHECKPOINT + 1
             }
         };
@@ -112,7 +115,7 @@ impl Playback {
     }
 
     /// Decodes frame `i` over `state` (the state of frame `i - 1`, or any state if frame `i` is
-    /// a key frame; at a checkpoint, the checkpoint's own state, which decodes to itself).
+    /// a key frame).
     fn decode(&self, i: usize, state: &mut Vec<f32>) -> Result<FrameHeader, RecordingError> {
         let path = &self.recording.path;
         recording::decode_frame(&self.frames[i].bytes, state).map_err(|source| RecordingError::NotLumen { path: path.clone(), what: BadMessage::Frame { index: Some(i as u64), sequence: 0, source } })

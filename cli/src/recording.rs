@@ -1,9 +1,11 @@
 //! Recordings of a session in MCAP (the robotics log format: `mcap` tools, Foxglove): the
 //! scene spec, then every reply as the exact bytes it has on the wire, and every frame as its
-//! wire header and the floats that changed since the frame recorded before it (a key frame with
-//! all of them every [`KEY_EVERY`] frames). A colonoscopy frame moves the scope and a few wall
-//! tips: this keeps a recording to a few kilobytes a frame instead of the whole colon, so the
-//! recorder keeps up with an unpaced physics. Reading restores each frame's exact bytes.
+//! wire header and what changed since the frame recorded before it, coded as a delta frame is on
+//! the wire (`lumen_transport::delta`; a key frame with every float every [`KEY_EVERY`]
+//! frames). MCAP's chunks are zstd-compressed. A colonoscopy frame moves the scope and a few
+//! thousand wall tips: this keeps a recording to tens of kilobytes a frame instead of the whole
+//! colon. Reading restores each frame's exact bytes; recordings of the older run-coded deltas
+//! read as before.
 //!
 //! - [`Writer`]: what `lumen record` writes through (one frame / reply at a time).
 //! - [`Recording`]: a recording read back and checked ([`Recording::open`]), its replies by
@@ -15,7 +17,7 @@
 //! | topic | message encoding | schema | message |
 //! |---|---|---|---|
 //! | `/lumen/spec` | `json` | `jsonschema` | the [`SceneSpec`], once, first |
-//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta (`u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
+//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta (`u32` 2, then a delta frame's payload: the 16-byte delta header and its zstd frame, against the frame before; files before it wrote `u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
 //! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
 //! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
 //! | `/lumen/scene` | `json` | `foxglove.SceneUpdate`, `jsonschema` (Foxglove's own schema) | at most 60 a second of log time, the scope as a line and the reply's contacts as arrows, and the colon as triangles on the first frame and then at most once a second (see [`crate::foxglove`]); left out by `lumen record --no-scene` ([`WriterOptions`]) |
@@ -32,6 +34,7 @@
 use crate::foxglove::{SceneWriter, SCENE_UPDATE, SCENE_UPDATE_SCHEMA};
 use lumen_proto::wire::{self, ContactsHeader, FrameHeader, CONTACT_BYTES};
 use lumen_proto::{Contact, SceneSpec};
+use lumen_transport::delta::{Decoder, DeltaError, Encoder};
 use mcap::records::{MessageHeader, Metadata};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -56,9 +59,6 @@ pub const FRAME_ENCODING: &str = "lumen-frame-delta";
 /// A key frame (every float) at least this often, so a damaged message costs at most this many
 /// frames and a reader can start at any key frame.
 pub const KEY_EVERY: u64 = 256;
-/// Unchanged floats a run of changes may span rather than end: a run costs 8 bytes of start and
-/// length, two floats.
-const RUN_GAP: usize = 2;
 /// The MCAP header's profile.
 pub const PROFILE: &str = "lumen";
 /// Name of the metadata record holding the spec and session, written first.
@@ -68,14 +68,17 @@ pub const SUMMARY_METADATA: &str = "lumen.summary";
 
 /// Schema text of [`FRAMES_TOPIC`]: the byte layout, for people and tools that list schemas.
 pub const FRAME_SCHEMA: &str = "\
-lumen.Frame v2, little-endian: the frame of proto/README.md section 2, its floats delta-coded.
+lumen.Frame v3, little-endian: the frame of proto/README.md section 2, its floats delta-coded.
 FrameHeader (40 bytes): 0 u32 magic 'LMNF' | 4 u16 version | 6 u16 flags | 8 u64 session |
 16 u64 frame | 24 u64 client_time_ns | 32 u32 floats | 36 u32 bodies
 then u32 kind: 0 = key frame, followed by floats x f32: every body's state in spec order (tube:
 per ring its control point x y z then its radial vectors x y z; rod: x y z per point), mm;
-1 = delta, followed by u32 runs, then per run u32 start, u32 len, len x f32: the floats
-[start, start + len) that differ (bit for bit) from the message before on this topic; the
-others are as there. The first message is a key frame, and one comes at least every 256.
+2 = delta against the message before on this topic, followed by a delta frame's payload as
+proto/README.md section 2 ('Delta frames') gives it: u64 base, u32 changed rows, u32 encoded,
+then one zstd frame of the changed rows' bitmap and byte planes;
+1 (v2 files) = delta, followed by u32 runs, then per run u32 start, u32 len, len x f32: the
+floats [start, start + len) that differ from the message before; the others are as there.
+The first message is a key frame, and one comes at least every 256.
 ";
 
 /// Schema text of [`CONTACTS_TOPIC`].
@@ -152,6 +155,9 @@ pub enum FrameDecodeError {
     /// A key frame whose floats are not the header's count.
     #[error("key frame of {bytes} bytes for {floats} floats")]
     KeyFrameLength { bytes: usize, floats: usize },
+    /// A coded delta (kind 2) that does not decode.
+    #[error("{0}")]
+    Delta(String),
     /// A delta whose frame before has another size (or is missing).
     #[error("a delta for {floats} floats after a frame of {before} (no key frame before it)")]
     DeltaWithoutKey { floats: usize, before: usize },
@@ -161,8 +167,8 @@ pub enum FrameDecodeError {
     /// Bytes left after the last run of a delta.
     #[error("{0} bytes after the last run")]
     Trailing(usize),
-    /// Neither key (0) nor delta (1).
-    #[error("unknown frame kind {0} (0 key, 1 delta)")]
+    /// Neither key (0) nor delta (1 or 2).
+    #[error("unknown frame kind {0} (0 key, 1 or 2 delta)")]
     UnknownKind(u32),
 }
 
@@ -238,8 +244,11 @@ pub struct Writer {
     sequence: u32,
     written: Written,
     buf: Vec<u8>,
-    /// The last recorded frame's floats (as bits), what the next delta is against.
-    last: Vec<u32>,
+    /// The last recorded frame's floats, what the next delta is against, and its number.
+    last: Vec<f32>,
+    last_frame: u64,
+    /// Made at the first delta.
+    encoder: Option<Encoder>,
     since_key: u64,
     scene: Option<SceneChannel>,
 }
@@ -257,8 +266,9 @@ impl Writer {
         let io = |source| RecordingError::Io { path: path.to_owned(), source };
         let file = File::create(path).map_err(io)?;
         let wr = |source| RecordingError::Write { path: path.to_owned(), source };
-        // No compression: the build stays free of C libraries, and every MCAP tool reads it.
-        let mcap_options = mcap::WriteOptions::new().profile(PROFILE).library(concat!("lumen/", env!("CARGO_PKG_VERSION"))).compression(None);
+        // zstd chunks: Foxglove, Lichtblick and the `mcap` tools read them (the frames inside
+        // are zstd already; the replies and the scene compress several times over).
+        let mcap_options = mcap::WriteOptions::new().profile(PROFILE).library(concat!("lumen/", env!("CARGO_PKG_VERSION"))).compression(Some(mcap::Compression::Zstd));
         let mut mcap = mcap_options.create(BufWriter::new(file)).map_err(wr)?;
         let spec_json = serde_json::to_string(spec).expect("a SceneSpec always serialises");
         let mut meta = BTreeMap::new();
@@ -301,6 +311,8 @@ impl Writer {
             written: Written::default(),
             buf: Vec::new(),
             last: Vec::new(),
+            last_frame: 0,
+            encoder: None,
             since_key: 0,
             scene,
         })
@@ -309,10 +321,17 @@ impl Writer {
     /// Appends one frame as it was on the wire; `receive_ns` is when the recorder got it
     /// (nanoseconds since the Unix epoch, see [`wall_ns`]).
     pub fn frame(&mut self, header: &FrameHeader, state: &[f32], receive_ns: u64) -> Result<(), RecordingError> {
-        let key = self.last.len() != state.len() || self.since_key + 1 >= KEY_EVERY;
+        // Whole rows only are delta-coded (a state always is; anything else goes whole).
+        let key = self.last.len() != state.len() || self.since_key + 1 >= KEY_EVERY || !state.len().is_multiple_of(3);
         self.since_key = if key { 0 } else { self.since_key + 1 };
         self.buf.clear();
-        encode_frame_message(header, &mut self.last, state, key, &mut self.buf);
+        let encoder = match &mut self.encoder {
+            Some(e) => e,
+            None => self.encoder.insert(Encoder::new().map_err(|e| RecordingError::Io { path: self.path.clone(), source: std::io::Error::other(e.to_string()) })?),
+        };
+        encode_frame_message(header, (&mut self.last, self.last_frame), state, key, encoder, &mut self.buf)
+            .map_err(|e| RecordingError::Io { path: self.path.clone(), source: std::io::Error::other(e.to_string()) })?;
+        self.last_frame = header.frame;
         self.put(self.frames_channel, header.client_time_ns, receive_ns, false)?;
         self.written.frames += 1;
         if let Some(scene) = &mut self.scene {
@@ -515,49 +534,26 @@ fn is_short_or_not_mcap(path: &Path) -> bool {
 }
 
 /// Appends the frame message of `header` and `state`: a key frame, or a delta against `last`
-/// (the floats of the message before, as bits); `last` becomes `state`.
-fn encode_frame_message(header: &FrameHeader, last: &mut Vec<u32>, state: &[f32], key: bool, out: &mut Vec<u8>) {
+/// (the floats of the message before, and its frame number); `last` becomes `state`.
+fn encode_frame_message(header: &FrameHeader, last: (&mut Vec<f32>, u64), state: &[f32], key: bool, encoder: &mut Encoder, out: &mut Vec<u8>) -> Result<(), DeltaError> {
+    let (last, last_frame) = last;
     out.extend_from_slice(&header.to_bytes());
     if key {
         out.extend_from_slice(&0u32.to_le_bytes());
         last.clear();
-        last.extend(state.iter().map(|v| v.to_bits()));
+        last.extend_from_slice(state);
         state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
     } else {
-        encode_delta(last, state, out);
+        out.extend_from_slice(&2u32.to_le_bytes());
+        encoder.encode(last_frame, last, state, out)?;
+        encoder.apply_last(last);
     }
+    Ok(())
 }
 
-/// Appends `1`, the run count and the runs of `state` that differ from `last` (bit for bit),
-/// and makes `last` equal to `state`.
-fn encode_delta(last: &mut [u32], state: &[f32], out: &mut Vec<u8>) {
-    out.extend_from_slice(&1u32.to_le_bytes());
-    let count_at = out.len();
-    out.extend_from_slice(&0u32.to_le_bytes());
-    let (mut runs, mut i, n) = (0u32, 0usize, state.len());
-    while i < n {
-        if last[i] == state[i].to_bits() {
-            i += 1;
-            continue;
-        }
-        // A run from i to the last change with at most RUN_GAP unchanged floats between changes.
-        let (start, mut end, mut j) = (i, i + 1, i + 1);
-        while j < n && j <= end + RUN_GAP {
-            if last[j] != state[j].to_bits() {
-                end = j + 1;
-            }
-            j += 1;
-        }
-        out.extend_from_slice(&(start as u32).to_le_bytes());
-        out.extend_from_slice(&((end - start) as u32).to_le_bytes());
-        for k in start..end {
-            out.extend_from_slice(&state[k].to_le_bytes());
-            last[k] = state[k].to_bits();
-        }
-        runs += 1;
-        i = end;
-    }
-    out[count_at..count_at + 4].copy_from_slice(&runs.to_le_bytes());
+thread_local! {
+    /// The decoder of coded deltas (kind 2), kept from one frame to the next.
+    static DECODER: std::cell::RefCell<Option<Decoder>> = const { std::cell::RefCell::new(None) };
 }
 
 /// Decodes a frame message into its header and `state` (which holds the frame decoded before
@@ -591,6 +587,21 @@ pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHe
             if !r.0.is_empty() {
                 return Err(FrameDecodeError::Trailing(r.0.len()));
             }
+        }
+        2 => {
+            if state.len() != floats {
+                return Err(FrameDecodeError::DeltaWithoutKey { floats, before: state.len() });
+            }
+            DECODER.with(|d| {
+                let mut d = d.borrow_mut();
+                let decoder = match &mut *d {
+                    Some(x) => x,
+                    None => d.insert(Decoder::new().map_err(|e| FrameDecodeError::Delta(e.to_string()))?),
+                };
+                decoder.read(r.0, floats).map_err(|e| FrameDecodeError::Delta(e.to_string()))?;
+                decoder.apply(state);
+                Ok::<(), FrameDecodeError>(())
+            })?;
         }
         k => return Err(FrameDecodeError::UnknownKind(k)),
     }
@@ -648,9 +659,9 @@ mod tests {
         FrameHeader::new(7, frame, 0, floats, 1)
     }
 
-    fn message(h: &FrameHeader, last: &mut Vec<u32>, state: &[f32], key: bool) -> Vec<u8> {
+    fn message(h: &FrameHeader, last: &mut Vec<f32>, state: &[f32], key: bool) -> Vec<u8> {
         let mut out = Vec::new();
-        encode_frame_message(h, last, state, key, &mut out);
+        encode_frame_message(h, (last, h.frame.saturating_sub(1)), state, key, &mut Encoder::new().unwrap(), &mut out).unwrap();
         out
     }
 
@@ -658,10 +669,10 @@ mod tests {
     fn deltas_restore_every_bit_and_stay_small() {
         // Sparse changes, runs at both ends, a gap of one unchanged float inside a run, and
         // values only bits tell apart (NaN payloads, -0.0).
-        let mut state: Vec<f32> = (0..1000).map(|i| i as f32 * 0.5).collect();
+        let mut state: Vec<f32> = (0..1002).map(|i| i as f32 * 0.5).collect();
         let mut last = Vec::new();
         let mut decoded = Vec::new();
-        let key = message(&header(0, 1000), &mut last, &state, true);
+        let key = message(&header(0, 1002), &mut last, &state, true);
         decode_frame(&key, &mut decoded).unwrap();
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&decoded), bits(&state));
@@ -671,15 +682,19 @@ mod tests {
             state[500] = f32::from_bits(0x7fc0_0000 | f as u32);
             state[502] = f as f32 * 3.0;
             state[(f as usize * 37) % 1000] += 1.0;
-            let m = message(&header(f, 1000), &mut last, &state, false);
-            assert!(m.len() < wire::FRAME_HEADER_BYTES + 8 + 8 * 5 + 4 * 12, "{} bytes", m.len());
+            let m = message(&header(f, 1002), &mut last, &state, false);
+            assert!(m.len() < wire::FRAME_HEADER_BYTES + 4 + 16 + 120, "{} bytes", m.len());
             let h = decode_frame(&m, &mut decoded).unwrap();
             assert_eq!(h.frame, f);
             assert_eq!(bits(&decoded), bits(&state), "frame {f}");
         }
-        // An unchanged frame is a delta of no runs.
-        let m = message(&header(20, 1000), &mut last, &state, false);
-        assert_eq!(m.len(), wire::FRAME_HEADER_BYTES + 8);
+        // An unchanged frame is a delta of no rows: a few bytes of zstd.
+        let m = message(&header(20, 1002), &mut last, &state, false);
+        assert!(m.len() < wire::FRAME_HEADER_BYTES + 4 + 16 + 40, "{} bytes", m.len());
+        // A coded delta cut short or corrupted is named.
+        let m = message(&header(21, 1002), &mut last, &state, false);
+        let err = decode_frame(&m[..m.len() - 3], &mut decoded).unwrap_err().to_string();
+        assert!(err.contains("coded bytes"), "{err}");
     }
 
     #[test]
@@ -688,7 +703,7 @@ mod tests {
         let mut last = Vec::new();
         let key = message(&header(0, 10), &mut last, &state, true);
         let mut decoded = Vec::new();
-        // A delta with nothing before it.
+        // A delta with nothing before it (the run-coded kind of older files).
         let mut delta = header(1, 10).to_bytes().to_vec();
         delta.extend_from_slice(&1u32.to_le_bytes());
         delta.extend_from_slice(&0u32.to_le_bytes());

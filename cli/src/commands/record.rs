@@ -1,15 +1,22 @@
 //! `lumen record SESSION -o run.mcap`: an observer writing a session's frames and replies to an
 //! MCAP file (see [`crate::recording`]) until the session ends or SIGINT / SIGTERM arrives; the
 //! file is finished either way.
+//!
+//! Two threads: the observer's loop only copies each frame and reply into a queue (a frame
+//! must be taken before the next one comes, or it is gone), and a writer thread codes and
+//! writes them, so a frame that takes long to write holds up no receiving.
 
 use super::transport::TransportArgs;
 use super::CliResult;
-use crate::recording::{wall_ns, Missed, Writer, WriterOptions};
+use crate::recording::{wall_ns, Missed, RecordingError, Writer, WriterOptions, Written};
 use clap::Args;
 use lumen_client::{Error, Observed};
+use lumen_proto::wire::{ContactsHeader, FrameHeader};
+use lumen_proto::Contact;
 use lumen_service::daemon::{block_termination_signals, wait_signal};
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 #[derive(Debug, Args)]
@@ -31,6 +38,35 @@ pub struct RecordArgs {
 /// How often the loop looks for SIGINT / SIGTERM while frames keep coming.
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
+/// Frames and replies the queue to the writer holds: a colon-sized frame is 0.5 MB, so 64 frames
+/// and their replies 31 MB, time to ride out a slow write (a zstd chunk, a disk stall) at 1 kHz.
+const QUEUE: usize = 128;
+
+/// What the observer's loop hands the writer.
+enum Item {
+    Frame(FrameHeader, Vec<f32>, u64),
+    Reply(ContactsHeader, Vec<Contact>, u64),
+}
+
+/// The writer thread: writes what comes until the queue closes, handing frame buffers back for
+/// reuse; returns the writer to finish, or the first error (the file is finished anyway).
+fn write_queue(mut writer: Writer, items: mpsc::Receiver<Item>, spare: mpsc::Sender<Vec<f32>>) -> (Writer, Result<(), RecordingError>) {
+    for item in items {
+        let written = match item {
+            Item::Frame(header, state, at) => {
+                let r = writer.frame(&header, &state, at);
+                let _ = spare.send(state);
+                r
+            }
+            Item::Reply(header, contacts, at) => writer.contacts(&header, &contacts, at),
+        };
+        if let Err(e) = written {
+            return (writer, Err(e));
+        }
+    }
+    (writer, Ok(()))
+}
+
 pub fn run(args: RecordArgs) -> CliResult {
     // Before any client thread exists, so that every thread inherits the blocked set.
     block_termination_signals();
@@ -38,10 +74,16 @@ pub fn run(args: RecordArgs) -> CliResult {
     let mut observer = client.observe(args.session)?;
     let info = observer.info().clone();
     let options = WriterOptions { scene: !args.no_scene };
-    let mut writer = Writer::create_with(&args.output, &info.spec, info.session, &info.transport.to_string(), options)?;
+    let writer = Writer::create_with(&args.output, &info.spec, info.session, &info.transport.to_string(), options)?;
     // One line on stdout once observing: scripts and tests wait for it.
     println!("lumen record: recording session {} to {}", info.session, args.output.display());
     let _ = std::io::stdout().flush();
+    let (to_writer, items) = mpsc::sync_channel::<Item>(QUEUE);
+    let (spare_tx, spare) = mpsc::channel::<Vec<f32>>();
+    let writing = std::thread::Builder::new()
+        .name("record-writer".into())
+        .spawn(move || write_queue(writer, items, spare_tx))
+        .map_err(|source| crate::error::CliError::ThreadSpawn { name: "recording's writer", source })?;
     let mut gaps = Gaps::default();
     let mut last_signal_look = Instant::now();
     let outcome: Result<String, Error> = loop {
@@ -51,22 +93,32 @@ pub fn run(args: RecordArgs) -> CliResult {
                 break Ok(format!("signal {sig}"));
             }
         }
-        match observer.next(SIGNAL_POLL) {
+        let item = match observer.next(SIGNAL_POLL) {
             Ok(Observed::Frame { header, state }) => {
                 gaps.frame(header.frame);
-                writer.frame(header, state, wall_ns())?;
+                let mut buf = spare.try_recv().unwrap_or_default();
+                buf.clear();
+                buf.extend_from_slice(state);
+                Item::Frame(*header, buf, wall_ns())
             }
             Ok(Observed::Contacts(reply)) => {
                 gaps.reply(reply.frame(), reply.header().skipped);
-                writer.contacts(reply.header(), reply.contacts(), wall_ns())?;
+                Item::Reply(*reply.header(), reply.contacts().to_vec(), wall_ns())
             }
-            Err(Error::Timeout(_)) => {}
+            Err(Error::Timeout(_)) => continue,
             Err(Error::SessionEnded(_)) => break Ok("session ended".into()),
             Err(e) => break Err(e),
+        };
+        // Closed only when the writer failed: its error is reported below.
+        if to_writer.send(item).is_err() {
+            break Ok("the writer stopped".into());
         }
     };
-    // Finish the file before reporting any observer error: what was recorded stays readable.
-    let written = writer.finish(gaps.missed)?;
+    drop(to_writer);
+    let (writer, wrote) = writing.join().map_err(|_| crate::error::CliError::ThreadPanicked { name: "recording's writer" })?;
+    // Finish the file before reporting any error: what was recorded stays readable.
+    let written: Written = writer.finish(gaps.missed)?;
+    wrote?;
     let why = outcome?;
     println!(
         "lumen record: {why}; {} frames, {} replies, {} contacts, {} scene updates, missed {} frames and {} replies, {} bytes in {}",
