@@ -21,7 +21,7 @@ namespace Lumen
     public enum FrameStatus : ushort
     {
         Ok = 0, Malformed = 1, BadVersion = 2, BadSession = 3, BadLength = 4, BadCounts = 5,
-        NonFinite = 6, NotStarShaped = 7, Internal = 8, OutOfRange = 9,
+        NonFinite = 6, NotStarShaped = 7, Internal = 8, OutOfRange = 9, NoBase = 10, BadDelta = 11,
     }
 
     /// <summary>A call into Lumen failed: <see cref="Status"/> says which way, the message what

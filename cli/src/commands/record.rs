@@ -45,7 +45,7 @@ const QUEUE: usize = 128;
 /// What the observer's loop hands the writer.
 enum Item {
     Frame(FrameHeader, Vec<f32>, u64),
-    Reply(ContactsHeader, Vec<Contact>, u64),
+    Reply(Box<ContactsHeader>, Vec<Contact>, u64),
 }
 
 /// The writer thread: writes what comes until the queue closes, handing frame buffers back for
@@ -103,7 +103,7 @@ pub fn run(args: RecordArgs) -> CliResult {
             }
             Ok(Observed::Contacts(reply)) => {
                 gaps.reply(reply.frame(), reply.header().skipped);
-                Item::Reply(*reply.header(), reply.contacts().to_vec(), wall_ns())
+                Item::Reply(Box::new(*reply.header()), reply.contacts().to_vec(), wall_ns())
             }
             Err(Error::Timeout(_)) => continue,
             Err(Error::SessionEnded(_)) => break Ok("session ended".into()),

@@ -82,6 +82,28 @@
 #define LUMEN_FLAG_TRUNCATED 1
 
 /**
+ * `FrameHeader::flags` bit: the frame carries what changed since a base frame (a
+ * [`DeltaHeader`] and its coded rows) instead of every float.
+ */
+#define LUMEN_FLAG_DELTA 1
+
+/**
+ * `FrameHeader::flags` bit: keep this frame's state as the session's base once it is answered
+ * with status 0 (the daemon holds one base; a newer kept frame replaces it).
+ */
+#define LUMEN_FLAG_KEEP 2
+
+/**
+ * The frame flags version 1 defines; any other bit is refused as malformed.
+ */
+#define LUMEN_FRAME_FLAGS (LUMEN_FLAG_DELTA | LUMEN_FLAG_KEEP)
+
+/**
+ * Size of [`DeltaHeader`] in bytes (after the frame header of a delta frame).
+ */
+#define LUMEN_DELTA_HEADER_BYTES 16
+
+/**
  * What a call did. `LUMEN_STATUS_OK` is 0; on any other status the call changed nothing but
  * its out-parameters (set to NULL or 0), and `lumen_last_error` says what was wrong. Besides
  * the statuses each function's documentation names, any call may return
@@ -292,6 +314,16 @@ enum LumenFrameStatus
    * is the rod, `error_index` its sample): nothing non-finite is ever sent.
    */
   LUMEN_FRAME_STATUS_OUT_OF_RANGE = 9,
+  /**
+   * A delta frame names a base the session does not hold (never kept, or replaced by a
+   * newer kept frame, or the daemon restarted): nothing was detected; send a full frame.
+   */
+  LUMEN_FRAME_STATUS_NO_BASE = 10,
+  /**
+   * A delta frame that does not decode (cut short, corrupted, counts that disagree):
+   * nothing was detected and the base is unchanged.
+   */
+  LUMEN_FRAME_STATUS_BAD_DELTA = 11,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -453,7 +485,7 @@ typedef struct LumenFrameHeader {
    */
   uint16_t version;
   /**
-   * Reserved, 0.
+   * [`FLAG_DELTA`] and [`FLAG_KEEP`]; other bits are reserved (0).
    */
   uint16_t flags;
   /**

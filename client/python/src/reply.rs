@@ -68,6 +68,8 @@ pub fn status_name(code: u16) -> &'static str {
         Some(Status::NotStarShaped) => "not_star_shaped",
         Some(Status::Internal) => "internal",
         Some(Status::OutOfRange) => "out_of_range",
+        Some(Status::NoBase) => "no_base",
+        Some(Status::BadDelta) => "bad_delta",
         None => "unknown",
     }
 }

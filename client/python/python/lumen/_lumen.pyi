@@ -59,7 +59,8 @@ class Reply:
     @property
     def status_name(self) -> str:
         """"ok", "malformed", "bad_version", "bad_session", "bad_length", "bad_counts",
-        "non_finite", "not_star_shaped", "internal", "out_of_range" or "unknown"."""
+        "non_finite", "not_star_shaped", "internal", "out_of_range", "no_base", "bad_delta" or
+        "unknown"."""
     @property
     def detect_us(self) -> float: ...
     @property
