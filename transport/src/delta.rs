@@ -95,20 +95,29 @@ fn apply(raw: &[u8], rows: usize, count: usize, state: &mut [f32], mut undo: Opt
     let (third, high) = rest.split_at(count);
     let mut zs = low.iter().zip(second).zip(third).zip(high).map(|(((a, b), c), d)| unzigzag(u32::from_le_bytes([*a, *b, *c, *d])));
     let state = bits_mut(state);
-    for (byte_at, &byte) in map.iter().enumerate() {
-        let mut marks = byte;
-        while marks != 0 {
-            let r = byte_at * 8 + marks.trailing_zeros() as usize;
-            marks &= marks - 1;
-            for v in &mut state[3 * r..3 * r + 3] {
-                let d = zs.next().expect("one z per changed float");
-                if let Some(u) = undo.as_deref_mut() {
-                    u.push(*v);
-                }
-                *v = v.wrapping_add(d);
+    for r in marked_rows(map) {
+        for v in &mut state[3 * r..3 * r + 3] {
+            let d = zs.next().expect("one z per changed float");
+            if let Some(u) = undo.as_deref_mut() {
+                u.push(*v);
             }
+            *v = v.wrapping_add(d);
         }
     }
+}
+
+/// The rows a bitmap marks, in order.
+fn marked_rows(map: &[u8]) -> impl Iterator<Item = usize> + '_ {
+    map.iter().enumerate().flat_map(|(byte_at, &byte)| {
+        let mut marks = byte;
+        std::iter::from_fn(move || {
+            (marks != 0).then(|| {
+                let r = byte_at * 8 + marks.trailing_zeros() as usize;
+                marks &= marks - 1;
+                r
+            })
+        })
+    })
 }
 
 /// Writes deltas; keeps its buffers and zstd context from one frame to the next.
@@ -238,17 +247,11 @@ impl Decoder {
 
     /// Puts back in `state` what the last [`Decoder::apply`] overwrote.
     pub fn undo(&mut self, state: &mut [f32]) {
-        let map = &self.raw[..bitmap_bytes(self.rows)];
         let mut old = self.undo.iter();
         let state = bits_mut(state);
-        for (byte_at, &byte) in map.iter().enumerate() {
-            let mut marks = byte;
-            while marks != 0 {
-                let r = byte_at * 8 + marks.trailing_zeros() as usize;
-                marks &= marks - 1;
-                for v in &mut state[3 * r..3 * r + 3] {
-                    *v = *old.next().expect("one saved value per changed float");
-                }
+        for r in marked_rows(&self.raw[..bitmap_bytes(self.rows)]) {
+            for v in &mut state[3 * r..3 * r + 3] {
+                *v = *old.next().expect("one saved value per changed float");
             }
         }
         self.undo.clear();
