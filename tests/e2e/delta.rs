@@ -1,6 +1,6 @@
 //! Delta frames end to end (`proto/README.md`, section 2, "Delta frames"): the real daemon as a
-//! child process, the Rust client sending deltas by itself over zenoh, and raw messages for what
-//! a client written from the page may get wrong.
+//! child process, the Rust client sending deltas by itself over zenoh, raw messages for what a
+//! client written from the page may get wrong, and a raw iceoryx2 client sending deltas.
 
 use lumen_client::{Client, Observed};
 use lumen_detect::Detector;
@@ -9,7 +9,7 @@ use lumen_proto::auth::Secret;
 use lumen_proto::wire::{encode_frame, FrameHeader, Status, FLAG_DELTA, FLAG_KEEP, FRAME_HEADER_BYTES};
 use lumen_transport::delta::Encoder;
 use std::path::Path;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use zenoh::Wait;
 
 const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
@@ -230,4 +230,83 @@ fn after_a_daemon_restart_the_clients_deltas_start_again_from_a_whole_frame() {
     assert_eq!(session.reconnects(), 1);
     assert!(after.full > before.full && after.delta >= before.delta + 8, "{before:?} then {after:?}");
     drop(d);
+}
+
+/// Over iceoryx2 a delta travels in the frame's `f32` slice, padded to whole floats: a raw client
+/// written from the page opens a session on its node, keeps a whole frame, then sends 30 deltas,
+/// each against the frame before it and kept; every reply is the whole frame's, bit for bit.
+#[test]
+fn deltas_over_iceoryx2_are_answered_as_whole_frames() {
+    use iceoryx2::prelude::*;
+    use lumen_proto::session::{ControlReply, ControlRequest};
+    use lumen_proto::wire::{ContactsHeader, DELTA_HEADER_BYTES};
+    use lumen_proto::Contact;
+    let d = daemon("dshm");
+    let scene = TestScene::new(30, 8, 12);
+    let node = NodeBuilder::new().config(&lumen_transport::shm::config(Some(&d.prefix)).unwrap()).create::<lumen_transport::shm::Svc>().unwrap();
+    // The open request from this node (the daemon answers only its publisher's frames).
+    let request = serde_json::to_vec(&ControlRequest::Open { version: 1, spec: scene.spec.clone(), client: "raw".into(), echo: false, alive: String::new() }).unwrap();
+    let control: ServiceName = "lumen/control".try_into().unwrap();
+    let service = node.service_builder(&control).request_response::<[u8], [u8]>().open().unwrap();
+    let wake = node.service_builder(&control).event().open().unwrap();
+    let port = service.client_builder().initial_max_slice_len(request.len()).create().unwrap();
+    let pending = port.loan_slice_uninit(request.len()).unwrap().write_from_slice(&request).send().unwrap();
+    wake.notifier_builder().create().unwrap().notify_with_custom_event_id(EventId::new(0)).unwrap();
+    let start = Instant::now();
+    let info = loop {
+        if let Some(reply) = pending.receive().unwrap() {
+            match serde_json::from_slice(reply.payload()).unwrap() {
+                ControlReply::Opened(info) => break info,
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!(start.elapsed() < WAIT, "no open reply");
+        std::thread::sleep(Duration::from_micros(200));
+    };
+    let floats = info.floats as usize;
+    let (frames, frame_event) = lumen_transport::shm::open_frame(&node, &info.frame).unwrap();
+    let publisher = frames.publisher_builder().initial_max_slice_len(floats).create().unwrap();
+    let notifier = frame_event.notifier_builder().create().unwrap();
+    let (contacts, _) = lumen_transport::shm::open_contacts(&node, &info.contacts).unwrap();
+    let subscriber = contacts.subscriber_builder().create().unwrap();
+    let send = |header: FrameHeader, payload: &[f32]| {
+        let mut sample = publisher.loan_slice_uninit(payload.len()).unwrap().write_from_slice(payload);
+        *sample.user_header_mut() = header;
+        sample.send().unwrap();
+        notifier.notify_with_custom_event_id(EventId::new(0)).unwrap();
+    };
+    let reply = |n: u64| -> (ContactsHeader, Vec<Contact>) {
+        let start = Instant::now();
+        loop {
+            if let Some(s) = subscriber.receive().unwrap() {
+                if s.user_header().frame == n {
+                    return (*s.user_header(), s.payload().to_vec());
+                }
+            }
+            assert!(start.elapsed() < WAIT, "no reply to frame {n}");
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    };
+    let header = |n: u64, flags: u16| FrameHeader { flags, ..FrameHeader::new(info.session, n, 0, floats, 2) };
+    send(header(0, FLAG_KEEP), &scene.state(0));
+    let (h, _) = reply(0);
+    assert_eq!(h.status, 0, "{}", h.message());
+    let mut enc = Encoder::new().unwrap();
+    let mut deltas = 0;
+    for k in 1..=30u64 {
+        let mut bytes = Vec::new();
+        enc.encode(k - 1, &scene.state(k - 1), &scene.state(k), &mut bytes).unwrap();
+        assert!(bytes.len() > DELTA_HEADER_BYTES);
+        // Whole floats: up to 3 bytes of padding after the zstd frame.
+        bytes.resize(bytes.len().div_ceil(4) * 4, 0);
+        let payload: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        assert!(payload.len() < floats / 4, "a delta of {} floats for a frame of {floats}", payload.len());
+        send(header(k, FLAG_DELTA | FLAG_KEEP), &payload);
+        let (h, got) = reply(k);
+        assert_eq!(h.status, 0, "frame {k}: {}", h.message());
+        let want = Detector::new(&scene.spec.validate().unwrap()).detect(&scene.state(k)).unwrap().to_vec();
+        assert!(same_bits(&got, &want), "frame {k}: the delta's reply differs from the whole frame's");
+        deltas += 1;
+    }
+    assert_eq!(deltas, 30);
 }
