@@ -61,7 +61,7 @@ impl ZenohClient {
             .map_err(|e| Error::NoDaemon { transport: Transport::Zenoh, detail: format!("cannot connect to {label}: {}", lumen_transport::without_source_paths(&e.to_string())) })?;
         let mut chunk = [0u8; 16];
         getrandom::fill(&mut chunk).map_err(|e| Error::zenoh("drawing the liveliness key's chunk", e.to_string()))?;
-        let alive = chunk.iter().map(|b| format!("{b:02x}")).collect();
+        let alive = lumen_proto::auth::hex(&chunk);
         Ok(Self { session, route: Route { endpoint: label.to_owned(), control: CONTROL.to_owned() }, daemon: None, alive })
     }
 
@@ -503,16 +503,10 @@ impl ZenohSession {
 /// decoding refuses it).
 fn reply_frame(sample: &Sample) -> (u64, u16) {
     let mut head = [0u8; 24];
-    let mut filled = 0;
-    for s in sample.payload().slices() {
-        let n = s.len().min(head.len() - filled);
-        head[filled..filled + n].copy_from_slice(&s[..n]);
-        filled += n;
-        if filled == head.len() {
-            return (u64::from_le_bytes(head[16..24].try_into().expect("8 bytes")), u16::from_le_bytes([head[6], head[7]]));
-        }
+    if lumen_transport::net::fill_head(sample.payload().slices(), &mut head) < head.len() {
+        return (u64::MAX, 0);
     }
-    (u64::MAX, 0)
+    (u64::from_le_bytes(head[16..24].try_into().expect("8 bytes")), u16::from_le_bytes([head[6], head[7]]))
 }
 
 /// An observer over zenoh: a place taken with `observe`, and one ask at a time for the

@@ -19,8 +19,13 @@ const CLOSE_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
 pub struct Plan {
     pub entry: Arc<Entry>,
     pub echo: bool,
+}
+
+impl Plan {
     /// Zenoh: the client liveliness key the session lives by (the opened reply's `alive`).
-    pub alive: String,
+    pub fn alive(&self) -> String {
+        client_alive_name(self.entry.info.session, &self.entry.chunk, &self.entry.secret)
+    }
 }
 
 pub(crate) fn error(code: ErrorCode, message: impl Into<String>) -> ControlReply {
@@ -211,7 +216,7 @@ fn open(registry: &Registry, transport: Transport, opening: Opening, start: impl
     let Some(entry) = registry.insert(info, secret, scene, client, holder, chunk) else {
         return error(ErrorCode::Busy, format!("the daemon already serves {} sessions", limits.max_sessions));
     };
-    match start(Plan { entry, echo, alive }) {
+    match start(Plan { entry, echo }) {
         Ok(()) => ControlReply::Opened(opened),
         Err(e) => {
             registry.remove(id);
@@ -339,7 +344,7 @@ mod tests {
         let with = |alive: &str| ControlRequest::Open { version: PROTOCOL_VERSION, spec: spec(10), client: "t".into(), echo: false, alive: alive.into() };
         let mut plans = Vec::new();
         let ControlReply::Opened(info) = handle(&reg, Transport::Zenoh, &Requester::Anyone, with(chunk), |p| {
-            plans.push(p.alive.clone());
+            plans.push(p.alive());
             Ok(())
         }) else {
             panic!()

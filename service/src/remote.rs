@@ -177,7 +177,7 @@ fn run_session(z: &zenoh::Session, plan: Plan, registry: &Registry, ready: &mpsc
     // The client's token is on a key only the owner can name (its last chunk comes from the
     // secret), and only a token on exactly that key counts: a stranger's token on a wildcard
     // that covers it cannot keep the session alive once its client is gone.
-    let alive_key = plan.alive.clone();
+    let alive_key = plan.alive();
     let alive = z.liveliness().declare_subscriber(alive_key.clone()).history(true).wait().map_err(|e| TransportError::zenoh(format!("watching {alive_key}"), e))?;
     // Held while the session lives: observers watch it to learn that the session ended.
     let live_key = session_live_name(info.session);

@@ -118,14 +118,21 @@ pub fn admit_parts<'a>(gate: &Mutex<Gate>, parts: impl IntoIterator<Item = &'a [
     let mut gate = gate.lock().unwrap_or_else(|p| p.into_inner());
     let mut head = [0u8; MAX_HEAD];
     let head = &mut head[..gate.head().min(MAX_HEAD)];
+    let filled = fill_head(parts, head);
+    gate.admit(&head[..filled], len, tag)
+}
+
+/// Copies the first `head.len()` bytes of a message given as `parts` (zenoh's fragments) into
+/// `head`; returns how many it had (fewer for a shorter message).
+pub fn fill_head<'a>(parts: impl IntoIterator<Item = &'a [u8]>, head: &mut [u8]) -> usize {
     let mut filled = 0;
     for s in parts {
-        let n = s.len().min(head.len() - filled);
-        head[filled..filled + n].copy_from_slice(&s[..n]);
-        filled += n;
         if filled == head.len() {
             break;
         }
+        let n = s.len().min(head.len() - filled);
+        head[filled..filled + n].copy_from_slice(&s[..n]);
+        filled += n;
     }
-    gate.admit(&head[..filled], len, tag)
+    filled
 }
