@@ -113,6 +113,9 @@ pub enum RecordingError {
     /// SIGKILL, a partial copy).
     #[error("{} is cut short or damaged after {messages} messages ({source}); was the recorder killed before it finished the file?", path.display())]
     Truncated { path: PathBuf, messages: u64, source: mcap::McapError },
+    /// A frame could not be delta-coded (the zstd context could not be made or failed).
+    #[error("{}: coding a frame: {source}", path.display())]
+    Delta { path: PathBuf, source: DeltaError },
     /// A valid MCAP file that is not a Lumen recording, or holds a message that is not what its
     /// topic says.
     #[error("{} is not a usable Lumen recording: {what}", path.display())]
@@ -247,8 +250,7 @@ pub struct Writer {
     /// The last recorded frame's floats, what the next delta is against, and its number.
     last: Vec<f32>,
     last_frame: u64,
-    /// Made at the first delta.
-    encoder: Option<Encoder>,
+    encoder: Encoder,
     since_key: u64,
     scene: Option<SceneChannel>,
 }
@@ -266,6 +268,7 @@ impl Writer {
         let io = |source| RecordingError::Io { path: path.to_owned(), source };
         let file = File::create(path).map_err(io)?;
         let wr = |source| RecordingError::Write { path: path.to_owned(), source };
+        let encoder = Encoder::new().map_err(|source| RecordingError::Delta { path: path.to_owned(), source })?;
         // zstd chunks: Foxglove, Lichtblick and the `mcap` tools read them (the frames inside
         // are zstd already; the replies and the scene compress several times over).
         let mcap_options = mcap::WriteOptions::new().profile(PROFILE).library(concat!("lumen/", env!("CARGO_PKG_VERSION"))).compression(Some(mcap::Compression::Zstd));
@@ -312,7 +315,7 @@ impl Writer {
             buf: Vec::new(),
             last: Vec::new(),
             last_frame: 0,
-            encoder: None,
+            encoder,
             since_key: 0,
             scene,
         })
@@ -325,12 +328,7 @@ impl Writer {
         let key = self.last.len() != state.len() || self.since_key + 1 >= KEY_EVERY || !state.len().is_multiple_of(3);
         self.since_key = if key { 0 } else { self.since_key + 1 };
         self.buf.clear();
-        let encoder = match &mut self.encoder {
-            Some(e) => e,
-            None => self.encoder.insert(Encoder::new().map_err(|e| RecordingError::Io { path: self.path.clone(), source: std::io::Error::other(e.to_string()) })?),
-        };
-        encode_frame_message(header, (&mut self.last, self.last_frame), state, key, encoder, &mut self.buf)
-            .map_err(|e| RecordingError::Io { path: self.path.clone(), source: std::io::Error::other(e.to_string()) })?;
+        encode_frame_message(header, (&mut self.last, self.last_frame), state, key, &mut self.encoder, &mut self.buf).map_err(|source| RecordingError::Delta { path: self.path.clone(), source })?;
         self.last_frame = header.frame;
         self.put(self.frames_channel, header.client_time_ns, receive_ns, false)?;
         self.written.frames += 1;

@@ -3,8 +3,9 @@
 //!
 //! Every frame is flagged keep. A frame goes as a delta against the base (the newest kept frame
 //! whose status-0 reply came back) when no other kept frame awaits its reply and the delta is
-//! smaller than the whole frame; otherwise whole. A kept frame that waits for its reply holds a
-//! copy of its state: when the reply says 0 it becomes the base. A reply that says the daemon
+//! smaller than the whole frame; otherwise whole. While a kept frame waits for its reply, its
+//! state is held (a whole frame's as a copy, a delta's as the encoder's last delta): when the
+//! reply says 0 it becomes the base. A reply that says the daemon
 //! has no such base, or a later frame's reply first (the kept frame was skipped or lost), makes
 //! the next frame whole: the daemon's base is then not known.
 

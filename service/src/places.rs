@@ -56,12 +56,12 @@ impl Places {
         self.held.lock().expect("places lock").iter().any(|p| p.token == *token && p.live(now))
     }
 
-    /// Frees `token`'s place.
     /// Whether any place is live: someone may ask for the next frame.
     pub fn any(&self, now: Instant) -> bool {
         self.held.lock().expect("places lock").iter().any(|p| p.live(now))
     }
 
+    /// Frees `token`'s place.
     pub fn give_back(&self, token: &Token) {
         self.held.lock().expect("places lock").retain(|p| p.token != *token);
     }

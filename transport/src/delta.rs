@@ -12,7 +12,7 @@
 //! - those `z` split into four byte planes (every low byte, then every second byte, ...): the
 //!   high planes are nearly all zero and compress to almost nothing.
 //!
-//! The bitmap and the planes are one zstd frame (level 1). Decoding reverses each step exactly,
+//! The bitmap and the planes are one zstd frame ([`LEVEL`]). Decoding reverses each step exactly,
 //! so the state rebuilt is the client's bit for bit. zstd over a general-purpose byte coder of
 //! our own: it is standard (every language has it), fast, and its worst case on hostile input is
 //! bounded by the output buffer we give it.
@@ -40,8 +40,9 @@ pub enum DeltaError {
     Zstd(std::io::Error),
     /// The zstd frame decompressed to another size than the bitmap and rows announced.
     Size { expected: usize, got: usize },
-    /// The bitmap's set bits are not the announced changed rows (or mark rows past the end).
-    Bitmap { changed: u32, set: usize },
+    /// The bitmap's set bits are not the announced changed rows, or mark rows past the state's
+    /// `rows`.
+    Bitmap { changed: u32, set: usize, rows: usize },
 }
 
 impl fmt::Display for DeltaError {
@@ -53,7 +54,7 @@ impl fmt::Display for DeltaError {
             DeltaError::Rows { changed, rows } => write!(f, "delta announces {changed} changed rows; the state has {rows}"),
             DeltaError::Zstd(e) => write!(f, "delta's zstd frame does not decompress: {e}"),
             DeltaError::Size { expected, got } => write!(f, "delta decompressed to {got} bytes; its bitmap and rows need {expected}"),
-            DeltaError::Bitmap { changed, set } => write!(f, "delta's bitmap marks {set} rows; its header announces {changed}"),
+            DeltaError::Bitmap { changed, set, rows } => write!(f, "delta's bitmap marks {set} rows; its header announces {changed}, all among the state's {rows}"),
         }
     }
 }
@@ -67,14 +68,11 @@ fn bitmap_bytes(rows: usize) -> usize {
 
 /// The bits of each float, as the codec compares and subtracts them.
 fn bits(v: &[f32]) -> &[u32] {
-    // SAFETY: f32 and u32 have the same size and alignment, and every bit pattern is valid
-    // for both.
-    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u32>(), v.len()) }
+    bytemuck::cast_slice(v)
 }
 
 fn bits_mut(v: &mut [f32]) -> &mut [u32] {
-    // SAFETY: as for `bits`, and the borrow is exclusive.
-    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<u32>(), v.len()) }
+    bytemuck::cast_slice_mut(v)
 }
 
 fn zigzag(d: u32) -> u32 {
@@ -224,12 +222,12 @@ impl Decoder {
         if got != expected {
             return Err(DeltaError::Size { expected, got });
         }
-        let mut set: usize = self.raw[..bitmap].iter().map(|b| b.count_ones() as usize).sum();
-        if !rows.is_multiple_of(8) && self.raw[bitmap - 1] >> (rows % 8) != 0 {
-            set = set.max(header.changed as usize + 1);
-        }
-        if set != header.changed as usize {
-            return Err(DeltaError::Bitmap { changed: header.changed, set });
+        // Every set bit counts, those past the last row too: they are refused even where the
+        // count agrees (applying them would write past the state).
+        let set: usize = self.raw[..bitmap].iter().map(|b| b.count_ones() as usize).sum();
+        let past_end = !rows.is_multiple_of(8) && self.raw[bitmap - 1] >> (rows % 8) != 0;
+        if set != header.changed as usize || past_end {
+            return Err(DeltaError::Bitmap { changed: header.changed, set, rows });
         }
         self.rows = rows;
         self.count = 3 * header.changed as usize;
@@ -334,7 +332,7 @@ mod tests {
         let z = zstd::bulk::compress(&raw, 1).unwrap();
         let mut lie = DeltaHeader { base: 7, changed: 1, encoded: z.len() as u32 }.to_bytes().to_vec();
         lie.extend(&z);
-        assert!(matches!(d.read(&lie, 300), Err(DeltaError::Bitmap { changed: 1, set: 2 })));
+        assert!(matches!(d.read(&lie, 300), Err(DeltaError::Bitmap { changed: 1, set: 2, rows: 100 })));
         // A row past the end of a state of 98 rows (bits 98, 99 of the last byte).
         let mut raw = vec![0u8; 13];
         raw[12] = 0b100;
@@ -342,7 +340,7 @@ mod tests {
         let z = zstd::bulk::compress(&raw, 1).unwrap();
         let mut past = DeltaHeader { base: 7, changed: 1, encoded: z.len() as u32 }.to_bytes().to_vec();
         past.extend(&z);
-        assert!(matches!(d.read(&past, 294), Err(DeltaError::Bitmap { .. })));
+        assert!(matches!(d.read(&past, 294), Err(DeltaError::Bitmap { changed: 1, set: 1, rows: 98 })));
         assert!(matches!(Encoder::new().unwrap().encode(0, &base, &new[..299], &mut Vec::new()), Err(DeltaError::Shape { .. })));
     }
 }

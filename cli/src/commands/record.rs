@@ -8,7 +8,7 @@
 
 use super::transport::TransportArgs;
 use super::CliResult;
-use crate::recording::{wall_ns, Missed, RecordingError, Writer, WriterOptions, Written};
+use crate::recording::{wall_ns, Missed, RecordingError, Writer, WriterOptions};
 use clap::Args;
 use lumen_client::{Error, Observed};
 use lumen_proto::wire::{ContactsHeader, FrameHeader};
@@ -117,7 +117,7 @@ pub fn run(args: RecordArgs) -> CliResult {
     drop(to_writer);
     let (writer, wrote) = writing.join().map_err(|_| crate::error::CliError::ThreadPanicked { name: "recording's writer" })?;
     // Finish the file before reporting any error: what was recorded stays readable.
-    let written: Written = writer.finish(gaps.missed)?;
+    let written = writer.finish(gaps.missed)?;
     wrote?;
     let why = outcome?;
     println!(
