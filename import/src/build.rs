@@ -20,18 +20,16 @@ pub struct ImportParams {
     /// into an insufflated one).
     pub inflate: f32,
     /// Gaussian smoothing of the midline's tangents along the arc, sigma (default 4 mm): CT
-    /// midlines are noisy, and ring planes follow the tangents.
+    /// midlines are noisy, and ring planes follow the tangents. Where sections would cross, the
+    /// import widens it locally ([`crate::slice`]).
     pub tangent_smoothing_mm: f32,
     /// Gaussian smoothing of the midline's points, sigma (default 1 mm).
     pub point_smoothing_mm: f32,
-    /// Whether spokes that reach past another ring's plane inside its lumen are shortened to
-    /// short of it ([`Tube::unfold`]; default false: counted in the report, left as they are).
-    pub unfold: bool,
 }
 
 impl Default for ImportParams {
     fn default() -> Self {
-        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0, unfold: false }
+        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0 }
     }
 }
 
@@ -56,24 +54,15 @@ impl ImportParams {
     }
 
     /// Lumen's parameters for the GCA colon (EdinGCA_3D_00090), used by the `gca` scene
-    /// everywhere: 32 spokes every 1 mm, inflated [`GCA_INFLATE`] times, tangents smoothed with
-    /// sigma [`GCA_TANGENT_SMOOTHING_MM`].
+    /// everywhere: 32 spokes every 1 mm, inflated [`GCA_INFLATE`] times, the default tangent
+    /// smoothing (the import widens it where sections would cross).
     pub fn gca() -> Self {
-        Self { spokes: 32, ring_spacing: 1.0, inflate: GCA_INFLATE, tangent_smoothing_mm: GCA_TANGENT_SMOOTHING_MM, ..Self::default() }
+        Self { spokes: 32, ring_spacing: 1.0, inflate: GCA_INFLATE, ..Self::default() }
     }
 }
 
 /// Inflation of the GCA colon: its CT lumen is collapsed, a colonoscopy's is insufflated.
 pub const GCA_INFLATE: f32 = 2.0;
-
-/// Tangent smoothing (sigma, mm) of the GCA colon's ring planes.
-///
-/// Its midline bends tighter than its inflated lumen is wide at the flexures, so ring planes that
-/// follow the tangent closely cross inside the lumen there, and the scope's samples are then
-/// measured against sections they are not in. Smoother tangents tilt the rings so they cross
-/// less, at the price of planes that cut neighbouring loops of the colon (repaired rays). The
-/// value is a measured island, not a cure: `docs/decisions/import.md` has the sweep.
-pub const GCA_TANGENT_SMOOTHING_MM: f32 = 24.0;
 
 /// A ray whose hit is kept is never repaired; every other ray is counted here by why it was
 /// rejected and by how it was replaced.
@@ -113,11 +102,21 @@ pub struct ImportReport {
     /// centre of curvature lies inside the lumen, so neighbouring rings cross there). Not
     /// repaired; for information.
     pub tight_bends: usize,
-    /// Spokes on the inside of those bends that reach past another ring's plane inside its
-    /// lumen (the wall passes over itself there: [`Tube::unfold`]), after inflation; shortened
-    /// where `unfolded` (after the fidelity measure), else left as they are.
+    /// Spokes that reach past another ring's plane within that ring's reach, after inflation
+    /// ([`Tube::folds`]): where the wall passes over itself. 0 unless the ring planes could not be
+    /// fanned clear of the lumen ([`crate::slice`]); the quality gate refuses a model with any.
     pub folds: lumen_detect::model::FoldReport,
-    pub unfolded: bool,
+    /// Rings whose plane was tilted off the smoothed tangent to keep sections from crossing, and
+    /// the largest angle between a ring's plane normal and its tangent (degrees).
+    pub tilted: usize,
+    pub max_tilt_deg: f64,
+    /// Slicings cast: one per width tried, and the final one.
+    pub slice_rounds: usize,
+    /// Spokes whose tips still lay past another ring's plane inside its section, after the
+    /// planes were chosen and the spokes inflated, shortened to just short of it
+    /// ([`Tube::clip_folds`]; after the fidelity measure): where the bend is tighter than any
+    /// tilt clears, or where inflated loops press on each other.
+    pub clipped: lumen_detect::model::FoldReport,
     /// Radial vector lengths after inflation: min, 5th percentile, median, 95th, max.
     pub radius_mm: [f64; 5],
     /// Whether at least 80% of first hits agree on which way the surface faces, so hits from
@@ -196,7 +195,7 @@ impl fmt::Display for ImportReport {
         let [r0, r5, r50, r95, r100] = self.radius_mm;
         write!(
             f,
-            "Imported {} rings x {} spokes along {:.1} mm of midline ({} rays), radii x{}: {} rays kept their first wall hit and {} ({:.2}%) were repaired: {} missed the surface, {} hit a neighbouring loop, {} were outliers against their neighbouring rings or spokes{}; {} were interpolated from the nearest kept spokes of their ring and {} clamped to their ring's median, and {} rings borrowed their median from neighbouring rings. Radius min / p5 / median / p95 / max: {:.1} / {:.1} / {:.1} / {:.1} / {:.1} mm. {} rings lie in bends tighter than the lumen's radius on their inner side, where neighbouring rings cross inside the lumen; {}.",
+            "Imported {} rings x {} spokes along {:.1} mm of midline ({} rays), radii x{}: {} rays kept their first wall hit and {} ({:.2}%) were repaired: {} missed the surface, {} hit a neighbouring loop, {} were outliers against their neighbouring rings or spokes{}; {} were interpolated from the nearest kept spokes of their ring and {} clamped to their ring's median, and {} rings borrowed their median from neighbouring rings. Radius min / p5 / median / p95 / max: {:.1} / {:.1} / {:.1} / {:.1} / {:.1} mm. {} rings lie in bends tighter than the lumen's radius on their inner side; {}.",
             self.rings,
             self.spokes,
             self.centerline_mm,
@@ -223,12 +222,20 @@ impl fmt::Display for ImportReport {
             r100,
             self.tight_bends,
             match self.folds.ring_range {
-                None => "no spoke reached past another ring's plane".to_string(),
+                None => format!(
+                    "no spoke reaches past another ring's plane inside its section: {} rings' planes were tilted off the midline's smoothed tangent (by up to {:.0} degrees; {} slicings), and {} spokes of {} rings were clipped short of a crossing (by up to {:.1} mm, {:.0}% of a spoke)",
+                    self.tilted,
+                    self.max_tilt_deg,
+                    self.slice_rounds,
+                    self.clipped.spokes,
+                    self.clipped.rings,
+                    self.clipped.max_cut,
+                    100.0 * self.clipped.max_cut_fraction
+                ),
                 Some((a, z)) => format!(
-                    "{} spokes of {} rings (rings {a}-{z}) reach past another ring's plane there, {} (by up to {:.1} mm, {:.0}% of a spoke)",
+                    "{} spokes of {} rings (rings {a}-{z}) reach past another ring's plane inside its section, by up to {:.1} mm ({:.0}% of a spoke)",
                     self.folds.spokes,
                     self.folds.rings,
-                    if self.unfolded { "and were shortened to short of it" } else { "left as they are (--unfold shortens them)" },
                     self.folds.max_cut,
                     100.0 * self.folds.max_cut_fraction
                 ),
@@ -365,6 +372,25 @@ impl Grid {
     }
 }
 
+/// A pair of rings `(i, j)` for every spoke of ring `i` that ends past [`crate::slice::ROOM`] of
+/// its way to ring `j`'s plane, from the first hits as cast (a miss, or a hit beyond the jump
+/// limit above its ring's median, taken as that median), scaled by `inflate`.
+fn crossing_pairs(pts: &[V3d], normal: &[V3d], dirs: &[Vec<V3d>], hits: &[Option<FirstHit>], b: usize, inflate: f64) -> Vec<(usize, usize)> {
+    let mut spokes = Vec::with_capacity(hits.len());
+    for (i, ring) in hits.chunks(b).enumerate() {
+        let mut ts: Vec<f64> = ring.iter().flatten().map(|h| h.t).collect();
+        let m = median(&mut ts);
+        let m = if m.is_nan() { 0.0 } else { m };
+        for (k, h) in ring.iter().enumerate() {
+            let t = h.map_or(m, |h| if h.t > JUMP_FACTOR * m + JUMP_MM { m } else { h.t });
+            spokes.push(dirs[i][k] * (t * inflate));
+        }
+    }
+    let mut pairs = Vec::new();
+    lumen_detect::model::fold_crossings(pts, normal, &spokes, b, crate::slice::ROOM, lumen_detect::model::FoldWithin::Section, |i, _, j, _| pairs.push((i, j)));
+    pairs
+}
+
 const JUMP_FACTOR: f64 = 1.8;
 const JUMP_MM: f64 = 2.0;
 /// A hit belongs to a neighbouring loop if a midline point more than
@@ -434,7 +460,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let pts: Vec<V3d> = (0..rings).map(|i| at_arc(&smooth, &raw_arc, i as f64 * spacing)).collect();
     let arc = arc_lengths(&pts);
     let tan = tangents(&pts, &arc, params.tangent_smoothing_mm as f64);
-    let nrm = rotation_minimising(&pts, &tan, any_perpendicular(tan[0]));
+    let raw_tan = tangents(&pts, &arc, 0.0);
     let s_nominal: Vec<f64> = (0..rings).map(|i| i as f64 * spacing).collect();
 
     // Surface.
@@ -447,33 +473,21 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let trimesh = TriMesh::new(verts, mesh.triangles.clone()).map_err(|e| ImportError::Invalid(format!("surface: {e:?}")))?;
     let (lo, hi) = mesh.bounds();
     let diag = (0..3).map(|d| (hi[d] as f64 - lo[d] as f64).powi(2)).sum::<f64>().sqrt();
-    let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
 
     // Cast: every ray's first hit, which way that triangle faces, and whether a second wall lies
-    // right behind it.
-    let dirs: Vec<Vec<V3d>> = (0..rings)
-        .map(|i| {
-            let bn = tan[i].cross(&nrm[i]);
-            (0..b)
-                .map(|k| {
-                    let a = std::f64::consts::TAU * k as f64 / b as f64;
-                    nrm[i] * a.cos() + bn * a.sin()
-                })
-                .collect()
-        })
-        .collect();
-    let mut hits: Vec<Option<FirstHit>> = vec![None; rings * b];
-    for i in 0..rings {
-        let o = pts[i];
+    // right behind it; in rounds, widening the ring planes' smoothing where sections cross
+    // (crate::slice), casting again only the rings whose plane moved.
+    let cast_ring = |o: V3d, normal: V3d, dirs: &[V3d], out: &mut [Option<FirstHit>]| {
         for k in 0..b {
             // A ray through a shared edge or vertex can slip between the triangles (parry's test
-            // is not watertight): a miss is cast again, turned a hair about the tangent.
+            // is not watertight): a miss is cast again, turned a hair about the plane's normal.
             let cast = |d: V3d| {
                 let ray = Ray::new(Vector::new(o.x as f32, o.y as f32, o.z as f32), Vector::new(d.x as f32, d.y as f32, d.z as f32));
                 trimesh.cast_local_ray_and_get_normal(&ray, (2.0 * diag) as f32, false).map(|h| (ray, h))
             };
-            let d = dirs[i][k];
-            let side = tan[i].cross(&d);
+            let d = dirs[k];
+            let side = normal.cross(&d);
+            out[k] = None;
             let Some((ray, hit)) = cast(d).or_else(|| cast((d + side * EDGE_NUDGE).normalize())).or_else(|| cast((d - side * EDGE_NUDGE).normalize())) else {
                 continue;
             };
@@ -487,9 +501,50 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
             let behind = h + d * (1e-4 * t.max(1e-9));
             let again = Ray::new(Vector::new(behind.x as f32, behind.y as f32, behind.z as f32), ray.dir);
             let doubled = trimesh.cast_local_ray(&again, (DOUBLE_WALL * t) as f32, false).is_some() || duplicates.contains(&hit.subshape);
-            hits[i * b + k] = Some(FirstHit { t, away, doubled });
+            out[k] = Some(FirstHit { t, away, doubled });
+        }
+    };
+    let ring_dirs = |normal: V3d, e1: V3d| -> Vec<V3d> {
+        let e2 = normal.cross(&e1);
+        (0..b)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / b as f64;
+                e1 * a.cos() + e2 * a.sin()
+            })
+            .collect()
+    };
+    // Each width of the ladder sliced whole, its crossings counted per ring; then each ring
+    // takes the width its neighbourhood crosses least at, and the tube is sliced at those.
+    let base = (params.tangent_smoothing_mm as f64).max(0.0);
+    let ladder = crate::slice::ladder(base, spacing);
+    let slice_at = |sigma: &[f64], hits: &mut Vec<Option<FirstHit>>| {
+        let normal = crate::slice::normals(&raw_tan, &arc, sigma);
+        let e1 = rotation_minimising(&pts, &normal, any_perpendicular(normal[0]));
+        let dirs: Vec<Vec<V3d>> = (0..rings).map(|i| ring_dirs(normal[i], e1[i])).collect();
+        for i in 0..rings {
+            cast_ring(pts[i], normal[i], &dirs[i], &mut hits[i * b..(i + 1) * b]);
+        }
+        (normal, dirs)
+    };
+    let mut hits: Vec<Option<FirstHit>> = vec![None; rings * b];
+    let mut counts: Vec<Vec<u32>> = Vec::with_capacity(ladder.len());
+    for &w in &ladder {
+        let (normal, dirs) = slice_at(&vec![w; rings], &mut hits);
+        let mut c = vec![0u32; rings];
+        for (i, j) in crossing_pairs(&pts, &normal, &dirs, &hits, b, inflate) {
+            c[i] += 1;
+            c[j] += 1;
+        }
+        let clean = c.iter().all(|&x| x == 0);
+        counts.push(c);
+        if clean {
+            break;
         }
     }
+    let sigma = crate::slice::choose(&counts, &ladder, &arc);
+    let (normal, dirs) = slice_at(&sigma, &mut hits);
+    let rounds = counts.len() + 1;
+    let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
     // Orientation relative to the midline: from inside the lumen the wall's outward normal faces
     // away from the ray's origin. The majority of first hits says which way the surface faces;
     // the rays that see the other side hit a wall from outside, unless the surface faces both
@@ -699,7 +754,10 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let mut tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
     let repaired: Vec<bool> = cls.iter().map(|c| !matches!(c, Ray1::Hit(_))).collect();
     report.fidelity = crate::fidelity::wall_to_surface(&tube, params.inflate, &trimesh, &repaired);
-    report.folds = if params.unfold { tube.unfold() } else { tube.clone().unfold() };
-    report.unfolded = params.unfold;
+    report.clipped = tube.clip_folds();
+    report.folds = tube.folds();
+    report.slice_rounds = rounds;
+    report.tilted = (0..rings).filter(|&i| sigma[i] > base).count();
+    report.max_tilt_deg = (0..rings).map(|i| normal[i].dot(&tan[i]).clamp(-1.0, 1.0).acos().to_degrees()).fold(0.0, f64::max);
     Ok((tube, report))
 }

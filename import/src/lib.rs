@@ -49,9 +49,10 @@ pub mod geom;
 pub mod mesh;
 pub mod probe;
 pub mod quality;
+pub mod slice;
 pub mod units;
 
-pub use build::{build_tube, ImportParams, ImportReport, RingTally, GCA_INFLATE, GCA_TANGENT_SMOOTHING_MM};
+pub use build::{build_tube, ImportParams, ImportReport, RingTally, GCA_INFLATE};
 pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, Centerline};
 pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, Mesh, SURFACE_FORMATS};
 pub use quality::{assess, Cause, Problem, Thresholds};

@@ -3,6 +3,8 @@
 use lumen_import::*;
 use std::path::PathBuf;
 
+type V = nalgebra::Vector3<f64>;
+
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lumen-import-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -292,10 +294,14 @@ fn a_loop_behind_the_wall_is_not_a_neighbouring_loop() {
     for (i, t) in rep.ring_tallies.iter().enumerate().take(86) {
         assert_eq!(t.repaired, 0, "ring {i}: {t:?}\n{rep}");
     }
-    for i in 0..76 {
+    // (Rings within the crossbar's sections' reach of the top, where the midline crosses from
+    // one lumen to the other through the walls, are clipped short of those sections.)
+    for i in 0..30 {
         for k in 0..tube.spokes {
-            let v = tube.spoke(i, k);
-            let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            // The tip's distance from the first lumen's axis (x = y = 0): planes near the bend
+            // tilt, so spokes are longer than the radius, but every tip lies on the wall.
+            let (v, p) = (tube.spoke(i, k), tube.points[i]);
+            let r = ((v[0] + p[0]).powi(2) + (v[1] + p[1]).powi(2)).sqrt();
             assert!(r > 9.98 && r < 10.01, "ring {i} spoke {k}: {r}");
         }
     }
@@ -312,11 +318,12 @@ fn a_neighbouring_loop_through_a_gap_is_still_repaired() {
     let (tube, rep) = build_tube(&fused, &hairpin(0.0, 18.0), &ImportParams::default()).unwrap();
     eprintln!("{rep}");
     // Five rays per ring of either leg, away from the bend at the top.
-    for (i, t) in rep.ring_tallies.iter().enumerate().take(80) {
+    for (i, t) in rep.ring_tallies.iter().enumerate().take(70) {
         assert_eq!(t.repaired, 5, "ring {i}: {t:?}\n{rep}");
     }
-    assert!(rep.neighbouring_loop >= 2 * 5 * 80, "{rep}");
-    for i in 0..80 {
+    assert!(rep.neighbouring_loop >= 2 * 5 * 70, "{rep}");
+    // (Nearer the top, spokes are clipped short of the crossbar's sections.)
+    for i in 0..60 {
         for k in 0..tube.spokes {
             let v = tube.spoke(i, k);
             let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -330,10 +337,11 @@ fn a_neighbouring_loop_through_a_gap_is_still_repaired() {
 }
 
 #[test]
-fn spokes_past_a_tight_bends_crossing_planes_are_counted_and_shortened_with_unfold() {
-    // A wide cylinder (radius 30) and a midline that turns 90 degrees on a 5 mm arc inside it: the
-    // arc's ring planes cross 5 mm from the midline, and the spokes on its inside reach the wall
-    // 20 mm or more beyond.
+fn a_bend_tighter_than_the_lumen_is_sliced_with_planes_that_do_not_cross_inside_it() {
+    // A wide cylinder (radius 30) and a midline that turns 90 degrees on a 5 mm arc inside it:
+    // planes along the midline's tangent cross 5 mm from it, and the spokes on the bend's inside
+    // reach the wall 20 mm or more beyond. The import fans the planes (wider smoothing there) and
+    // clips what still crosses: no spoke ends inside another ring's section.
     let mesh = cylinder(0.0, 30.0, 100.0, 96, 40);
     let mut points: Vec<[f32; 3]> = (0..=30).map(|i| [0.0, 0.0, 10.0 + i as f32]).collect();
     let arc: Vec<[f32; 3]> = (1..=8)
@@ -346,22 +354,34 @@ fn spokes_past_a_tight_bends_crossing_planes_are_counted_and_shortened_with_unfo
     points.extend((1..=15).map(|i| [5.0 + i as f32, 0.0, 45.0]));
     let line = Centerline { points, ..Default::default() };
     let params = ImportParams { tangent_smoothing_mm: 0.5, point_smoothing_mm: 0.0, ..Default::default() };
-    let (kept, rep) = build_tube(&mesh, &line, &params).unwrap();
-    let (unfolded, rep_u) = build_tube(&mesh, &line, &ImportParams { unfold: true, ..params }).unwrap();
-    eprintln!("{rep_u}");
-    let folds = rep.folds;
-    assert!(folds.spokes > 10 && folds.max_cut > 5.0, "{folds:?}");
-    assert_eq!(rep_u.folds, folds);
-    assert!(!rep.unfolded && rep_u.unfolded);
-    assert!(rep.to_string().contains("left as they are (--unfold shortens them)"), "{rep}");
-    assert!(rep_u.to_string().contains("and were shortened to short of it"), "{rep_u}");
-    // Left as they are without --unfold; with it, exactly what Tube::unfold makes of them, and
-    // nothing left to shorten.
-    let mut again = kept.clone();
-    assert_eq!(again.unfold(), folds);
-    assert_eq!(again, unfolded);
-    assert_ne!(kept, unfolded);
-    assert_eq!(unfolded.clone().unfold(), lumen_detect::model::FoldReport::default());
-    // The fidelity is the wall's before the shortening: the same either way.
-    assert_eq!(rep.fidelity.p99, rep_u.fidelity.p99);
+    let (tube, rep) = build_tube(&mesh, &line, &params).unwrap();
+    eprintln!("{rep}");
+    assert_eq!(rep.folds, lumen_detect::model::FoldReport::default(), "{rep}");
+    assert_eq!(tube.folds(), rep.folds);
+    assert!(rep.tilted > 10 && rep.max_tilt_deg > 10.0, "{rep}");
+    assert!(rep.to_string().contains("no spoke reaches past another ring's plane inside its section"), "{rep}");
+    // The same tube with every ring's plane along its own tangent (the import's planes turned
+    // back, spokes cast again by their length in the plane) folds: what the fan avoided.
+    let mut flat = tube.clone();
+    let n = flat.rings();
+    for i in 0..n {
+        let (a, c) = (flat.points[i.saturating_sub(1)], flat.points[(i + 1).min(n - 1)]);
+        let t = V::new((c[0] - a[0]) as f64, (c[1] - a[1]) as f64, (c[2] - a[2]) as f64).normalize();
+        let e1 = if t.cross(&V::y()).norm() > 0.1 { t.cross(&V::y()).normalize() } else { t.cross(&V::x()).normalize() };
+        let e2 = t.cross(&e1);
+        for k in 0..flat.spokes {
+            let a = std::f64::consts::TAU * k as f64 / flat.spokes as f64;
+            let d = e1 * a.cos() + e2 * a.sin();
+            // The cylinder's wall along d from the point (radius 30 about the z axis).
+            let p = flat.points[i];
+            let (px, py, dx, dy) = (p[0] as f64, p[1] as f64, d.x, d.y);
+            let (qa, qb, qc) = (dx * dx + dy * dy, 2.0 * (px * dx + py * dy), px * px + py * py - 900.0);
+            let r = if qa < 1e-12 { 60.0 } else { (-qb + (qb * qb - 4.0 * qa * qc).sqrt()) / (2.0 * qa) };
+            flat.radial[i * flat.spokes + k] = [(d.x * r) as f32, (d.y * r) as f32, (d.z * r) as f32];
+        }
+    }
+    let folded = flat.folds();
+    assert!(folded.spokes > 10 && folded.max_cut > 5.0, "{folded:?}");
+    // The wall stays on the surface.
+    assert!(rep.fidelity.p99 < 0.5, "{:?}", rep.fidelity);
 }

@@ -1,5 +1,5 @@
 //! `lumen import <mesh> --centerline <csv> [--units U] [--spokes B] [--ring-spacing D]
-//! [--inflate F] [--unfold] [--force] -o <model>`: a tube model from a triangle surface and its midline, by
+//! [--inflate F] [--force] -o <model>`: a tube model from a triangle surface and its midline, by
 //! ray casting ([`lumen_import`] does the work and counts every repaired spoke). A model that is
 //! not a usable tube ([`lumen_import::quality`]) is refused with every problem named, unless
 //! `--force`.
@@ -50,18 +50,13 @@ pub struct ImportArgs {
     #[arg(long, default_value_t = 1.0)]
     pub inflate: f32,
     /// Gaussian smoothing of the midline's tangents along the arc, sigma, in the mesh's unit.
-    /// Raise it where the midline bends tighter than the lumen is wide (the report counts those
-    /// rings): the `gca` scene uses 24 mm.
+    /// Where a bend is tighter than the lumen is wide, the import widens it there by itself
+    /// until no two ring planes cross inside the lumen.
     #[arg(long, default_value_t = 4.0)]
     pub tangent_smoothing: f32,
     /// Gaussian smoothing of the midline's points, sigma, in the mesh's unit.
     #[arg(long, default_value_t = 1.0)]
     pub point_smoothing: f32,
-    /// Shorten the spokes that reach past another ring's plane inside its lumen, on the inside
-    /// of bends tighter than the lumen (the report counts them either way): there the wall
-    /// passes over itself, and a scope is held by walls that lie inside other sections.
-    #[arg(long)]
-    pub unfold: bool,
     /// The model to write: the method's text format when the name ends in `.txt`, else Lumen's
     /// native format (which also keeps the import's fidelity, for `lumen bench detect --model`).
     #[arg(short, long)]
@@ -69,8 +64,7 @@ pub struct ImportArgs {
 }
 
 pub fn run(a: ImportArgs) -> CliResult {
-    let params =
-        ImportParams { spokes: a.spokes, ring_spacing: a.ring_spacing, inflate: a.inflate, tangent_smoothing_mm: a.tangent_smoothing, point_smoothing_mm: a.point_smoothing, unfold: a.unfold };
+    let params = ImportParams { spokes: a.spokes, ring_spacing: a.ring_spacing, inflate: a.inflate, tangent_smoothing_mm: a.tangent_smoothing, point_smoothing_mm: a.point_smoothing };
     // Refused before the files are read, naming the flag: a wrong flag should not cost a mesh
     // load.
     if let Err(e) = params.validate() {

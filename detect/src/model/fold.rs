@@ -40,6 +40,10 @@ pub const WINDOW: usize = 64;
 /// The part of its way to the nearest crossing a shortened spoke keeps.
 pub const KEEP: f64 = 0.8;
 
+/// The part of its way to a crossing inside another section a clipped spoke keeps
+/// ([`Tube::clip_folds`]): short of it by more than `f32` rounding.
+pub const CLIP: f64 = 0.995;
+
 /// What [`Tube::unfold`] shortened.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FoldReport {
@@ -55,10 +59,86 @@ pub struct FoldReport {
     pub max_cut_fraction: f64,
 }
 
-type V = nalgebra::Vector3<f64>;
+/// A vector in `f64`.
+pub type V = nalgebra::Vector3<f64>;
 
 fn v(a: [f32; 3]) -> V {
     V::new(a[0] as f64, a[1] as f64, a[2] as f64)
+}
+
+/// Where a crossing of another ring's plane counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Within {
+    /// Within that ring's longest spoke of its point (what [`Tube::unfold`] shortens against).
+    Reach,
+    /// Inside that ring's section, the polygon of its spoke tips, and before the spoke's own tip:
+    /// a point of the lumen in two sections ([`Tube::folds`]).
+    Section,
+}
+
+/// Whether `x` (relative to a ring's point, in its plane of unit normal `n`) lies inside the
+/// polygon of the ring's spoke tips `s` (in order around `n`, either sense): in the sector
+/// between two consecutive spokes, on the point's side of the edge between their tips.
+fn in_section(x: V, n: V, s: &[V]) -> bool {
+    let b = s.len();
+    let side = |a: &V, c: &V| a.cross(c).dot(&n);
+    // The spokes' sense about n, from the polygon's area.
+    let o = if (0..b).map(|k| side(&s[k], &s[(k + 1) % b])).sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
+    for k in 0..b {
+        let (a, c) = (s[k], s[(k + 1) % b]);
+        if o * side(&a, &x) >= 0.0 && o * side(&x, &c) >= 0.0 {
+            // Inside the triangle (0, a, c): on the origin's side of the edge a-c.
+            return o * side(&(c - a), &(x - a)) >= 0.0;
+        }
+    }
+    false
+}
+
+/// The nearest crossing of every spoke that reaches past another ring's plane: for ring `i`,
+/// spoke `k` (ring-major in `spokes`, `b` a ring, relative to `points[i]`), calls
+/// `f(i, k, j, way)` with the ring `j` (within [`WINDOW`]) whose plane the spoke crosses first,
+/// where `within` says, and the way along the spoke to there, when the spoke is
+/// longer than `keep` times that way (`keep = 1`: the spoke's tip lies past the crossing).
+/// `normals` are the rings' unit plane normals, oriented along the midline. Pure, in `f64`, so
+/// the import's ring planes and the model's check read the same test.
+pub fn crossings(points: &[V], normals: &[V], spokes: &[V], b: usize, keep: f64, within: Within, mut f: impl FnMut(usize, usize, usize, f64)) {
+    let n = points.len();
+    let reach: Vec<f64> = (0..n).map(|i| spokes[i * b..(i + 1) * b].iter().map(|s| s.norm()).fold(0.0, f64::max)).collect();
+    for i in 0..n {
+        let c = points[i];
+        for k in 0..b {
+            let s = spokes[i * b + k];
+            let len = s.norm();
+            if len.is_nan() || len <= 0.0 {
+                continue;
+            }
+            let d = s / len;
+            let mut way = (f64::INFINITY, usize::MAX);
+            for j in i.saturating_sub(WINDOW)..(i + WINDOW + 1).min(n) {
+                if j == i {
+                    continue;
+                }
+                let (nj, cj) = (normals[j], points[j]);
+                let (dist, dn) = ((c - cj).dot(&nj), d.dot(&nj));
+                let wrong_way = if j > i { dist < 0.0 && dn > 0.0 } else { dist > 0.0 && dn < 0.0 };
+                if wrong_way {
+                    let t = -dist / dn;
+                    let x = c + d * t - cj;
+                    let near = match within {
+                        Within::Reach => x.norm() <= reach[j],
+                        Within::Section => in_section(x, nj, &spokes[j * b..(j + 1) * b]),
+                    };
+                    if t < way.0 && near {
+                        way = (t, j);
+                    }
+                }
+            }
+            // Beyond rounding: a spoke already shortened to `keep` of its way stays as it is.
+            if way.1 != usize::MAX && keep * way.0 < len * (1.0 - 1e-6) {
+                f(i, k, way.1, way.0);
+            }
+        }
+    }
 }
 
 impl Tube {
@@ -66,59 +146,61 @@ impl Tube {
     /// the module), to [`KEEP`] of its way there; says what it shortened. A tube whose ring
     /// planes cross nowhere inside its lumen is left exactly as it was.
     pub fn unfold(&mut self) -> FoldReport {
-        let (n, b) = (self.rings(), self.spokes);
-        let normals: Vec<V> = (0..n).map(|i| self.ring_normal(i)).collect();
-        let reach: Vec<f64> = (0..n).map(|i| (0..b).map(|k| v(self.spoke(i, k)).norm()).fold(0.0, f64::max)).collect();
-        let mut report = FoldReport::default();
-        let mut shortened = Vec::new();
-        for i in 0..n {
-            let c = v(self.points[i]);
-            let mut any = false;
-            for k in 0..b {
-                let s = v(self.spoke(i, k));
-                let len = s.norm();
-                if len <= 0.0 {
-                    continue;
-                }
-                let d = s / len;
-                let mut way = f64::INFINITY;
-                for j in i.saturating_sub(WINDOW)..(i + WINDOW + 1).min(n) {
-                    if j == i {
-                        continue;
-                    }
-                    let (nj, cj) = (normals[j], v(self.points[j]));
-                    let (dist, dn) = ((c - cj).dot(&nj), d.dot(&nj));
-                    let wrong_way = if j > i { dist < 0.0 && dn > 0.0 } else { dist > 0.0 && dn < 0.0 };
-                    if wrong_way {
-                        let t = -dist / dn;
-                        if t < way && (c + d * t - cj).norm() <= reach[j] {
-                            way = t;
-                        }
-                    }
-                }
-                let keep = KEEP * way;
-                // Beyond rounding: a spoke already shortened here stays as it is.
-                if keep < len * (1.0 - 1e-6) {
-                    shortened.push((i * b + k, d * keep));
-                    report.spokes += 1;
-                    report.max_cut = report.max_cut.max(len - keep);
-                    report.max_cut_fraction = report.max_cut_fraction.max(1.0 - keep / len);
-                    any = true;
-                }
-            }
-            if any {
-                report.rings += 1;
-                report.ring_range = Some(report.ring_range.map_or((i, i), |(a, _)| (a, i)));
-            }
-        }
+        let (report, shortened) = self.fold_check(KEEP, Within::Reach);
         for (at, s) in shortened {
             self.radial[at] = [s.x as f32, s.y as f32, s.z as f32];
         }
         report
     }
 
+    /// The spokes whose tips lie past another ring's plane within that ring's reach: where the
+    /// wall passes over itself. `spokes == 0` for a tube that never folds. `max_cut` is how far
+    /// the deepest tip reaches past its crossing.
+    pub fn folds(&self) -> FoldReport {
+        self.fold_check(1.0, Within::Section).0
+    }
+
+    /// Shortens every spoke whose tip lies past another ring's plane inside that ring's section
+    /// to [`CLIP`] of its way there, along itself (its ring's plane stays as it was); says what
+    /// it shortened. Afterwards [`Tube::folds`] finds none: shortening only shrinks sections,
+    /// so no crossing appears that was not there. Where two parts of an inflated lumen press on
+    /// each other, this is their flattened wall.
+    pub fn clip_folds(&mut self) -> FoldReport {
+        let (report, shortened) = self.fold_check(CLIP, Within::Section);
+        for (at, s) in shortened {
+            self.radial[at] = [s.x as f32, s.y as f32, s.z as f32];
+        }
+        report
+    }
+
+    /// The spokes longer than `keep` of their way to a crossing, and each shortened to that.
+    fn fold_check(&self, keep: f64, within: Within) -> (FoldReport, Vec<(usize, V)>) {
+        let (n, b) = (self.rings(), self.spokes);
+        let normals: Vec<V> = (0..n).map(|i| self.ring_normal(i)).collect();
+        let points: Vec<V> = self.points.iter().map(|&p| v(p)).collect();
+        let spokes: Vec<V> = self.radial.iter().map(|&s| v(s)).collect();
+        let mut report = FoldReport::default();
+        let mut shortened = Vec::new();
+        let mut last_ring = usize::MAX;
+        crossings(&points, &normals, &spokes, b, keep, within, |i, k, _, way| {
+            let s = spokes[i * b + k];
+            let len = s.norm();
+            let cut = keep * way;
+            shortened.push((i * b + k, s * (cut / len)));
+            report.spokes += 1;
+            report.max_cut = report.max_cut.max(len - cut);
+            report.max_cut_fraction = report.max_cut_fraction.max(1.0 - cut / len);
+            if last_ring != i {
+                last_ring = i;
+                report.rings += 1;
+                report.ring_range = Some(report.ring_range.map_or((i, i), |(a, _)| (a, i)));
+            }
+        });
+        (report, shortened)
+    }
+
     /// Ring `i`'s plane normal as the detector reads it ([`ring_plane`]), in `f64`.
-    fn ring_normal(&self, i: usize) -> V {
+    pub fn ring_normal(&self, i: usize) -> V {
         let (n, b) = (self.rings(), self.spokes);
         let chord = v(self.points[(i + 1).min(n - 1)]) - v(self.points[i.saturating_sub(1)]);
         ring_plane(chord, [0, b / 4, b / 2, 3 * b / 4].map(|k| v(self.spoke(i, k)))).0
@@ -207,5 +289,40 @@ mod tests {
         let (ra, rm) = (a.unfold(), m.unfold());
         assert_eq!((ra.spokes, ra.rings, ra.ring_range), (rm.spokes, rm.rings, rm.ring_range));
         assert!((rm.max_cut * 1e3 - ra.max_cut).abs() < 1e-3 * ra.max_cut, "{ra:?} {rm:?}");
+    }
+
+    #[test]
+    fn folds_count_tips_inside_another_section_and_clipping_leaves_none() {
+        // Bend radius 6 against a lumen of 10: the arc's planes cross 6 from the midline, inside
+        // both sections; a bend of radius 60 folds nowhere.
+        assert_eq!(bent(10.0, 60.0, 1.0, 30, 16).folds(), FoldReport::default());
+        let mut t = bent(10.0, 6.0, 0.5, 40, 16);
+        let before = t.clone();
+        let folds = t.folds();
+        assert!(folds.spokes > 10 && folds.max_cut > 1.0, "{folds:?}");
+        assert_eq!(t, before, "counting changes nothing");
+        let clipped = t.clip_folds();
+        // Also those within CLIP of a crossing.
+        assert!(clipped.spokes >= folds.spokes && clipped.spokes < folds.spokes + 10, "{clipped:?} {folds:?}");
+        assert_eq!(t.folds(), FoldReport::default());
+        // Only lengths change, never directions, and never longer.
+        for (a, b) in t.radial.iter().zip(&before.radial) {
+            let (a, b) = (v(*a), v(*b));
+            assert!(a.norm() <= b.norm() + 1e-6 && (a.normalize() - b.normalize()).norm() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn a_point_is_in_a_section_inside_the_polygon_of_its_tips() {
+        let ring: Vec<V> = (0..8).map(|k| k as f64 * std::f64::consts::TAU / 8.0).map(|a| V::new(10.0 * a.cos(), 10.0 * a.sin(), 0.0)).collect();
+        let reversed: Vec<V> = ring.iter().rev().copied().collect();
+        for s in [&ring, &reversed] {
+            assert!(in_section(V::new(3.0, 4.0, 0.0), V::z(), s));
+            assert!(in_section(V::new(9.0, 0.5, 0.0), V::z(), s));
+            // Between the tips at 0 and 45 degrees the edge passes 9.24 from the centre.
+            let a = std::f64::consts::PI / 8.0;
+            assert!(!in_section(V::new(9.5 * a.cos(), 9.5 * a.sin(), 0.0), V::z(), s));
+            assert!(!in_section(V::new(-12.0, 0.0, 0.0), V::z(), s));
+        }
     }
 }
