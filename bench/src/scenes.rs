@@ -55,7 +55,10 @@ impl Model {
     pub fn read(path: &Path) -> Result<Self, Error> {
         let bytes = std::fs::read(path).map_err(|source| Error::ModelRead { path: path.to_owned(), source })?;
         match parse_model(&bytes, is_text_path(path)) {
-            Ok((Body::Tube(tube), import)) => Ok(Self { path: path.to_owned(), tube, import }),
+            Ok((Body::Tube(tube), import)) => match lumen_import::check(&tube) {
+                Ok(()) => Ok(Self { path: path.to_owned(), tube, import }),
+                Err(e) => Err(Error::Model { path: path.to_owned(), message: e.to_string() }),
+            },
             Ok((Body::Rod(_), _)) => Err(Error::Model { path: path.to_owned(), message: "holds a rod, not a colon (a tube)".into() }),
             Err(e) => Err(Error::Model { path: path.to_owned(), message: e.to_string() }),
         }

@@ -77,6 +77,35 @@ pub enum ImportError {
     /// unit), its value, and what it must be.
     #[error("{name} {value}: expected {expected}")]
     Param { name: &'static str, value: String, expected: String },
+    /// The model was built but fails the quality gate ([`quality::assess`] or
+    /// [`quality::check_tube`]): every problem, with its cause and rings.
+    #[error("the model is refused: {}", .problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
+    Refused { problems: Vec<Problem> },
+}
+
+/// [`build_tube`] behind the quality gate: the tube and its report when [`assess`] finds no
+/// problem under the default [`Thresholds`], else [`ImportError::Refused`] with every problem.
+/// Every colon that enters Lumen from a surface (the `gca` scene, the benchmarks, the
+/// simulation) comes through here; `lumen import --force` is the one way past it.
+pub fn import(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(lumen_detect::Tube, ImportReport), ImportError> {
+    let (tube, report) = build_tube(mesh, centerline, params)?;
+    let problems = assess(&report, &Thresholds::default());
+    if problems.is_empty() {
+        Ok((tube, report))
+    } else {
+        Err(ImportError::Refused { problems })
+    }
+}
+
+/// A tube from a model file (or anywhere but [`import`]) behind the gate's checks on the tube
+/// alone ([`quality::check_tube`]): a model that folds is refused with its rings.
+pub fn check(tube: &lumen_detect::Tube) -> Result<(), ImportError> {
+    let problems = quality::check_tube(tube);
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(ImportError::Refused { problems })
+    }
 }
 
 impl ImportError {

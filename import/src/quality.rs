@@ -70,6 +70,9 @@ pub enum Cause {
     MidlineBeyond,
     Fidelity,
     TurnsBack,
+    /// A spoke's tip lies past another ring's plane inside that ring's section: the wall passes
+    /// over itself ([`lumen_detect::Tube::folds`]).
+    Folds,
 }
 
 /// One problem: its cause, what was measured against what limit, and the rings it touches
@@ -186,6 +189,9 @@ pub fn assess(r: &ImportReport, limits: &Thresholds) -> Vec<Problem> {
             vec![],
         );
     }
+    if let Some(p) = fold_problem(&r.folds, r.rings) {
+        add(p.cause, p.message, p.rings);
+    }
     if r.turns_back.len() as f64 > limits.turns_back * rings {
         add(
             Cause::TurnsBack,
@@ -194,4 +200,24 @@ pub fn assess(r: &ImportReport, limits: &Thresholds) -> Vec<Problem> {
         );
     }
     out
+}
+
+/// The fold check as a problem: none when no spoke folds.
+fn fold_problem(folds: &lumen_detect::model::FoldReport, of: usize) -> Option<Problem> {
+    let (a, z) = folds.ring_range?;
+    Some(Problem {
+        cause: Cause::Folds,
+        message: format!(
+            "{} spokes of {} rings reach past another ring's plane inside its section, by up to {:.1} mm: the wall passes over itself there (a model that folds)",
+            folds.spokes, folds.rings, folds.max_cut
+        ),
+        rings: vec![a..=z],
+        of,
+    })
+}
+
+/// The problems of a model that did not come through [`assess`] (a model file, a generated or
+/// hand-made tube): what can be checked on the tube alone, today whether it folds.
+pub fn check_tube(tube: &lumen_detect::Tube) -> Vec<Problem> {
+    fold_problem(&tube.folds(), tube.rings()).into_iter().collect()
 }

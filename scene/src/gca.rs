@@ -6,7 +6,7 @@
 //! the data or anything derived from it is shown, credit it with [`attribution`].
 
 use lumen_detect::Tube;
-use lumen_import::{build_tube, load_centerline_csv, load_mesh, Centerline, ImportError, ImportParams, ImportReport, Mesh};
+use lumen_import::{import, load_centerline_csv, load_mesh, Centerline, ImportError, ImportParams, ImportReport, Mesh};
 use std::path::{Path, PathBuf};
 
 /// File name of the GCA colon's surface.
@@ -63,9 +63,10 @@ impl Source {
         Ok(Self { mesh: load_mesh(&mesh)?, line: load_centerline_csv(&line)? })
     }
 
-    /// The tube imported with `params`, and what the import repaired.
+    /// The tube imported with `params`, and what the import repaired, behind the quality gate
+    /// ([`lumen_import::import`]: the same import and verdict as `lumen import`).
     pub fn tube(&self, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
-        build_tube(&self.mesh, &self.line, params)
+        import(&self.mesh, &self.line, params)
     }
 }
 

@@ -51,6 +51,46 @@ fn real_colon_imports_with_plausible_numbers() {
     assert!(!rep.flipped && rep.orientation_agreement > 0.99 && rep.turns_back.is_empty());
     let w = rep.fidelity;
     assert!(w.p50 < 0.05 && w.p99 < 1.5 && w.max < 20.0, "{w:?}");
+    // No spoke ends inside another ring's section, at the scan's width and inflated 2 and 4
+    // times (the hard class: lumens far wider than the flexures' bend radius).
+    assert_eq!(tube.folds(), lumen_detect::model::FoldReport::default());
+    for inflate in [1.0, 4.0] {
+        let (t, r) = import(&mesh, &line, &ImportParams { inflate, ..ImportParams::gca() }).unwrap_or_else(|e| panic!("inflate {inflate}: {e}"));
+        assert_eq!((t.folds().spokes, r.folds.spokes), (0, 0), "inflate {inflate}: {r}");
+        eprintln!("inflate {inflate}: {r}");
+        if inflate == 1.0 {
+            assert!(r.fidelity.p99 <= 0.5 && r.clipped.spokes < 40, "{r}");
+        }
+    }
+}
+
+#[test]
+fn a_double_walled_colon_in_a_data_folder_is_refused_by_the_scene_as_by_lumen_import() {
+    use lumen_scene::gca::{load, CENTERLINE, MESH};
+    // A cylinder of radius 12 along z, written twice over itself.
+    let d = std::env::temp_dir().join(format!("lumen-scene-{}-doubled", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let (around, along) = (48usize, 41usize);
+    let mut obj = String::new();
+    for j in 0..along {
+        for i in 0..around {
+            let a = std::f32::consts::TAU * i as f32 / around as f32;
+            obj += &format!("v {} {} {}\n", 12.0 * a.cos(), 12.0 * a.sin(), 5.0 * j as f32);
+        }
+    }
+    let id = |j: usize, i: usize| j * around + i % around + 1;
+    for _ in 0..2 {
+        for j in 0..along - 1 {
+            for i in 0..around {
+                obj += &format!("f {} {} {}\nf {} {} {}\n", id(j, i), id(j + 1, i), id(j + 1, i + 1), id(j, i), id(j + 1, i + 1), id(j, i + 1));
+            }
+        }
+    }
+    std::fs::write(d.join(MESH), obj).unwrap();
+    let csv: String = (0..=38).map(|k| format!("0,0,{}\n", 5.0 + 5.0 * k as f32)).collect();
+    std::fs::write(d.join(CENTERLINE), format!("x,y,z\n{csv}")).unwrap();
+    let err = load(Some(&d), 2.0).unwrap_err().to_string();
+    assert!(err.contains("refused") && err.contains("doubled wall"), "{err}");
 }
 
 #[test]

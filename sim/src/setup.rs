@@ -165,14 +165,21 @@ pub enum ModelFileError {
     /// It holds a rod.
     #[error("holds a rod, not a colon (a tube)")]
     NotATube,
+    /// The colon fails the import's gate (it folds).
+    #[error(transparent)]
+    Refused(lumen_import::ImportError),
 }
 
 /// The colon in a model file written by `lumen import` (native, or the text format when its
-/// name ends in `.txt`).
+/// name ends in `.txt`), behind the import's checks on a tube ([`lumen_import::check`]): a
+/// model that folds is refused, as `lumen import` would refuse it.
 pub fn model_colon(path: &Path) -> Result<Tube, ModelFileError> {
     let bytes = std::fs::read(path).map_err(ModelFileError::Read)?;
     match parse_model(&bytes, is_text_path(path)).map_err(ModelFileError::Parse)? {
-        (Body::Tube(t), _) => Ok(t),
+        (Body::Tube(t), _) => {
+            lumen_import::check(&t).map_err(ModelFileError::Refused)?;
+            Ok(t)
+        }
         (Body::Rod(_), _) => Err(ModelFileError::NotATube),
     }
 }

@@ -277,3 +277,44 @@ fn bench_detect_runs_on_a_model_lumen_import_wrote() {
     assert!(!d.join("out2").exists(), "no report without a model");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A tube that folds: round rings of radius 10 along a quarter circle of radius 6 (planes along
+/// the midline's tangent), between two straight runs.
+fn folded_tube() -> lumen_detect::Tube {
+    let (r, bend, spokes) = (10.0f32, 6.0f32, 16usize);
+    let mut frames: Vec<([f32; 3], [f32; 3])> = (1..=30).rev().map(|m| ([bend, -(m as f32), 0.0], [0.0, 1.0, 0.0])).collect();
+    for m in 0..=20 {
+        let a = std::f32::consts::FRAC_PI_2 * m as f32 / 20.0;
+        frames.push(([bend * a.cos(), bend * a.sin(), 0.0], [-a.sin(), a.cos(), 0.0]));
+    }
+    frames.extend((1..=30).map(|m| ([-(m as f32), bend, 0.0], [-1.0, 0.0, 0.0])));
+    let (mut points, mut radial) = (Vec::new(), Vec::new());
+    for (p, t) in frames {
+        points.push(p);
+        let e1 = [t[1], -t[0], 0.0];
+        for k in 0..spokes {
+            let a = std::f32::consts::TAU * k as f32 / spokes as f32;
+            radial.push([r * e1[0] * a.cos(), r * e1[1] * a.cos(), r * a.sin()]);
+        }
+    }
+    lumen_detect::Tube::new(points, radial, spokes).unwrap()
+}
+
+#[test]
+fn a_model_file_that_folds_is_refused_by_the_demo_and_the_bench_with_its_cause() {
+    let d = dir("folded");
+    let tube = folded_tube();
+    assert!(tube.folds().spokes > 0);
+    std::fs::write(d.join("f.lumen"), lumen_detect::model::save_native(&Body::Tube(tube.clone()))).unwrap();
+    let says = "reach past another ring's plane inside its section";
+    let o = Command::new(LUMEN).args(["demo", "--frames", "10", "--no-record", "--model"]).arg(d.join("f.lumen")).arg("--out").arg(d.join("demo")).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains(says) && err.contains("f.lumen"), "{err}");
+    let o = Command::new(LUMEN).args(["bench", "detect", "--quick", "--no-progress", "--model"]).arg(d.join("f.lumen")).arg("--out").arg(d.join("bench")).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains(says) && err.contains("f.lumen"), "{err}");
+    // Clipped short of its crossings, the same tube passes the gate.
+    let mut clipped = tube;
+    assert!(clipped.clip_folds().spokes > 0);
+    assert!(lumen_import::check(&clipped).is_ok());
+}
