@@ -20,16 +20,19 @@ pub struct ImportParams {
     /// into an insufflated one).
     pub inflate: f32,
     /// Gaussian smoothing of the midline's tangents along the arc, sigma (default 4 mm): CT
-    /// midlines are noisy, and ring planes follow the tangents. Where sections would cross, the
-    /// import widens it locally ([`crate::slice`]).
+    /// midlines are noisy, and ring planes follow the tangents. The narrowest width the import
+    /// tries; it may choose a wider one ([`crate::slice`]).
     pub tangent_smoothing_mm: f32,
     /// Gaussian smoothing of the midline's points, sigma (default 1 mm).
     pub point_smoothing_mm: f32,
+    /// The widest tangent smoothing the import tries for the ring planes (default 64 mm; equal
+    /// to `tangent_smoothing_mm`, the planes follow that one smoothing: [`crate::slice`]).
+    pub widest_smoothing_mm: f32,
 }
 
 impl Default for ImportParams {
     fn default() -> Self {
-        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0 }
+        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0, widest_smoothing_mm: crate::slice::WIDEST as f32 }
     }
 }
 
@@ -49,6 +52,10 @@ impl ImportParams {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ImportError::Param { name, value: v.to_string(), expected: "a number >= 0".into() });
             }
+        }
+        let w = self.widest_smoothing_mm;
+        if !(w.is_finite() && w >= self.tangent_smoothing_mm) {
+            return Err(ImportError::Param { name: "widest_smoothing", value: w.to_string(), expected: format!("a number >= the tangent smoothing ({})", self.tangent_smoothing_mm) });
         }
         Ok(())
     }
@@ -106,12 +113,12 @@ pub struct ImportReport {
     /// ([`Tube::folds`]): where the wall passes over itself. 0 unless the ring planes could not be
     /// fanned clear of the lumen ([`crate::slice`]); the quality gate refuses a model with any.
     pub folds: lumen_detect::model::FoldReport,
-    /// Rings whose plane was tilted off the smoothed tangent to keep sections from crossing, and
-    /// the largest angle between a ring's plane normal and its tangent (degrees).
-    pub tilted: usize,
+    /// The smoothing width of the ring planes' tangents the import chose (mm; see
+    /// [`crate::slice`]), how many widths it tried, and the largest angle between a ring's
+    /// plane normal and the midline's tangent at the import's own smoothing (degrees).
+    pub smoothing_mm: f64,
+    pub widths_tried: usize,
     pub max_tilt_deg: f64,
-    /// Slicings cast: one per width tried, and the final one.
-    pub slice_rounds: usize,
     /// Spokes whose tips still lay past another ring's plane inside its section, after the
     /// planes were chosen and the spokes inflated, shortened to just short of it
     /// ([`Tube::clip_folds`]; after the fidelity measure): where the bend is tighter than any
@@ -223,10 +230,10 @@ impl fmt::Display for ImportReport {
             self.tight_bends,
             match self.folds.ring_range {
                 None => format!(
-                    "no spoke reaches past another ring's plane inside its section: {} rings' planes were tilted off the midline's smoothed tangent (by up to {:.0} degrees; {} slicings), and {} spokes of {} rings were clipped short of a crossing (by up to {:.1} mm, {:.0}% of a spoke)",
-                    self.tilted,
+                    "no spoke reaches past another ring's plane inside its section: ring planes follow the midline's tangent smoothed over {:.1} mm (of {} widths tried; up to {:.0} degrees off the tangent), and {} spokes of {} rings were clipped short of a crossing (by up to {:.1} mm, {:.0}% of a spoke)",
+                    self.smoothing_mm,
+                    self.widths_tried,
                     self.max_tilt_deg,
-                    self.slice_rounds,
                     self.clipped.spokes,
                     self.clipped.rings,
                     self.clipped.max_cut,
@@ -372,25 +379,6 @@ impl Grid {
     }
 }
 
-/// A pair of rings `(i, j)` for every spoke of ring `i` that ends past [`crate::slice::ROOM`] of
-/// its way to ring `j`'s plane, from the first hits as cast (a miss, or a hit beyond the jump
-/// limit above its ring's median, taken as that median), scaled by `inflate`.
-fn crossing_pairs(pts: &[V3d], normal: &[V3d], dirs: &[Vec<V3d>], hits: &[Option<FirstHit>], b: usize, inflate: f64) -> Vec<(usize, usize)> {
-    let mut spokes = Vec::with_capacity(hits.len());
-    for (i, ring) in hits.chunks(b).enumerate() {
-        let mut ts: Vec<f64> = ring.iter().flatten().map(|h| h.t).collect();
-        let m = median(&mut ts);
-        let m = if m.is_nan() { 0.0 } else { m };
-        for (k, h) in ring.iter().enumerate() {
-            let t = h.map_or(m, |h| if h.t > JUMP_FACTOR * m + JUMP_MM { m } else { h.t });
-            spokes.push(dirs[i][k] * (t * inflate));
-        }
-    }
-    let mut pairs = Vec::new();
-    lumen_detect::model::fold_crossings(pts, normal, &spokes, b, crate::slice::ROOM, lumen_detect::model::FoldWithin::Section, |i, _, j, _| pairs.push((i, j)));
-    pairs
-}
-
 const JUMP_FACTOR: f64 = 1.8;
 const JUMP_MM: f64 = 2.0;
 /// A hit belongs to a neighbouring loop if a midline point more than
@@ -475,8 +463,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let diag = (0..3).map(|d| (hi[d] as f64 - lo[d] as f64).powi(2)).sum::<f64>().sqrt();
 
     // Cast: every ray's first hit, which way that triangle faces, and whether a second wall lies
-    // right behind it; in rounds, widening the ring planes' smoothing where sections cross
-    // (crate::slice), casting again only the rings whose plane moved.
+    // right behind it.
     let cast_ring = |o: V3d, normal: V3d, dirs: &[V3d], out: &mut [Option<FirstHit>]| {
         for k in 0..b {
             // A ray through a shared edge or vertex can slip between the triangles (parry's test
@@ -513,251 +500,254 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
             })
             .collect()
     };
-    // Each width of the ladder sliced whole, its crossings counted per ring; then each ring
-    // takes the width its neighbourhood crosses least at, and the tube is sliced at those.
+    // The whole tube sliced at each width of the ladder (crate::slice), each finished as a
+    // candidate: the wall truest to the surface, and of those the fewest spokes clipped.
     let base = (params.tangent_smoothing_mm as f64).max(0.0);
-    let ladder = crate::slice::ladder(base, spacing);
-    let slice_at = |sigma: &[f64], hits: &mut Vec<Option<FirstHit>>| {
-        let normal = crate::slice::normals(&raw_tan, &arc, sigma);
+    let ladder = crate::slice::ladder(base, spacing, params.widest_smoothing_mm as f64);
+    let slice_at = |w: f64| {
+        let normal = crate::slice::normals(&raw_tan, &arc, &vec![w; rings]);
         let e1 = rotation_minimising(&pts, &normal, any_perpendicular(normal[0]));
         let dirs: Vec<Vec<V3d>> = (0..rings).map(|i| ring_dirs(normal[i], e1[i])).collect();
+        let mut hits: Vec<Option<FirstHit>> = vec![None; rings * b];
         for i in 0..rings {
             cast_ring(pts[i], normal[i], &dirs[i], &mut hits[i * b..(i + 1) * b]);
         }
-        (normal, dirs)
+        (normal, dirs, hits)
     };
-    let mut hits: Vec<Option<FirstHit>> = vec![None; rings * b];
-    let mut counts: Vec<Vec<u32>> = Vec::with_capacity(ladder.len());
-    for &w in &ladder {
-        let (normal, dirs) = slice_at(&vec![w; rings], &mut hits);
-        let mut c = vec![0u32; rings];
-        for (i, j) in crossing_pairs(&pts, &normal, &dirs, &hits, b, inflate) {
-            c[i] += 1;
-            c[j] += 1;
+    let finish = |w: f64, normal: &[V3d], dirs: &[Vec<V3d>], hits: &[Option<FirstHit>]| -> Result<(Tube, ImportReport), ImportError> {
+        let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
+        // Orientation relative to the midline: from inside the lumen the wall's outward normal faces
+        // away from the ray's origin. The majority of first hits says which way the surface faces;
+        // the rays that see the other side hit a wall from outside, unless the surface faces both
+        // ways too often to tell.
+        let seen = hits.iter().flatten().count();
+        let away = hits.iter().flatten().filter(|h| h.away).count();
+        let flipped = 2 * away < seen;
+        let agree = if seen == 0 { 0.0 } else { away.max(seen - away) as f64 / seen as f64 };
+        let oriented = seen > 0 && agree >= ORIENTED_AGREEMENT;
+        let mut cls = vec![Ray1::Missed; rings * b];
+        for i in 0..rings {
+            for k in 0..b {
+                let Some(hit) = hits[i * b + k] else { continue };
+                let t = hit.t;
+                cls[i * b + k] = if oriented && hit.away == flipped {
+                    Ray1::Outside
+                } else {
+                    let h = pts[i] + dirs[i][k] * t;
+                    let reach = NEIGHBOUR_ARC_MM.max(t);
+                    let r = NEIGHBOUR_RATIO * t;
+                    let foreign = grid.near(&h, r, |j| {
+                        let j = j as usize;
+                        (s_nominal[j] - s_nominal[i]).abs() > reach && (pts[j] - h).norm() < r && sees(&trimesh, pts[j], h)
+                    });
+                    if foreign {
+                        Ray1::Neighbour
+                    } else {
+                        Ray1::Hit(t)
+                    }
+                };
+            }
         }
-        let clean = c.iter().all(|&x| x == 0);
-        counts.push(c);
+        // Outliers: jumps against both neighbouring rings. (Not hits merely far above the ring's
+        // median: where the midline runs off the lumen's centre, or past a pocket, the far wall is
+        // continuous with its neighbours and is the ring's own; repairing it put the GCA colon's
+        // wall 2 to 12 mm off its surface there.)
+        let raw_t = |i: usize, k: usize, c: &[Ray1]| match c[i * b + k] {
+            Ray1::Hit(t) => Some(t),
+            _ => None,
+        };
+        let snapshot = cls.clone();
+        for i in 1..rings.saturating_sub(1) {
+            for k in 0..b {
+                if let (Some(t), Some(p), Some(n)) = (raw_t(i, k, &snapshot), raw_t(i - 1, k, &snapshot), raw_t(i + 1, k, &snapshot)) {
+                    if t > JUMP_FACTOR * p.max(n) + JUMP_MM {
+                        cls[i * b + k] = Ray1::Outlier;
+                    }
+                }
+            }
+        }
+        // Angular steps: a run of at most a quarter turn of spokes that steps up from its ring's
+        // neighbouring spoke and back down again (a ray bundle through a gap into another lumen).
+        for i in 0..rings {
+            let ts: Vec<Option<f64>> = (0..b).map(|k| raw_t(i, k, &cls)).collect();
+            let steep = |hi: f64, lo: f64| hi > JUMP_FACTOR * lo + JUMP_MM;
+            for start in 0..b {
+                let prev = (start + b - 1) % b;
+                let (Some(t0), Some(tp)) = (ts[start], ts[prev]) else { continue };
+                if !steep(t0, tp) {
+                    continue;
+                }
+                // Find the step back down within a quarter turn.
+                for len in 1..=b / 4 {
+                    let last = (start + len - 1) % b;
+                    let next = (start + len) % b;
+                    let (Some(tl), Some(tn)) = (ts[last], ts[next]) else { break };
+                    if steep(tl, tn) {
+                        for d in 0..len {
+                            cls[i * b + (start + d) % b] = Ray1::Outlier;
+                        }
+                        break;
+                    }
+                }
+            }
+        }
+        let enough = (b / 4).max(3);
+        let mut medians: Vec<f64> = (0..rings)
+            .map(|i| {
+                let mut v: Vec<f64> = (0..b).filter_map(|k| raw_t(i, k, &cls)).collect();
+                if v.len() >= enough {
+                    median(&mut v)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let doubled = hits.iter().flatten().filter(|h| h.doubled).count();
+        let (mlo, mhi) = (
+            centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))),
+            centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))),
+        );
+        let midline_beyond_surface = (0..3).map(|d| (lo[d] - mlo[d]).max(mhi[d] - hi[d]).max(0.0) as f64).fold(0.0, f64::max);
+        let mut report = ImportReport {
+            rings,
+            spokes: b,
+            centerline_mm: length,
+            inflate,
+            rays: rings * b,
+            oriented,
+            flipped: oriented && flipped,
+            orientation_agreement: agree,
+            doubled,
+            midline_beyond_surface,
+            surface_diagonal: diag,
+            turns_back: turns_back.clone(),
+            ring_tallies: vec![RingTally::default(); rings],
+            ..Default::default()
+        };
+        for (n, h) in hits.iter().enumerate() {
+            if h.is_some_and(|h| h.doubled) {
+                report.ring_tallies[n / b].doubled += 1;
+            }
+        }
+        // Rings without enough hits borrow the nearest good median.
+        let mut all: Vec<f64> = cls.iter().filter_map(|c| if let Ray1::Hit(t) = c { Some(*t) } else { None }).collect();
+        let global = median(&mut all);
+        let good = medians.clone();
+        for i in 0..rings {
+            if good[i].is_nan() {
+                report.rings_borrowed += 1;
+                report.ring_tallies[i].borrowed = true;
+                let mut found = f64::NAN;
+                for d in 1..rings {
+                    let cands = [i.checked_sub(d), (i + d < rings).then_some(i + d)];
+                    let vals: Vec<f64> = cands.iter().flatten().map(|&j| good[j]).filter(|x| !x.is_nan()).collect();
+                    if !vals.is_empty() {
+                        found = vals.iter().sum::<f64>() / vals.len() as f64;
+                        break;
+                    }
+                }
+                medians[i] = if found.is_nan() {
+                    if global.is_nan() {
+                        1.0
+                    } else {
+                        global
+                    }
+                } else {
+                    found
+                };
+            }
+        }
+        // Repair and build.
+        let mut radial = Vec::with_capacity(rings * b);
+        let mut lengths = Vec::with_capacity(rings * b);
+        for i in 0..rings {
+            let ts: Vec<Option<f64>> = (0..b).map(|k| raw_t(i, k, &cls)).collect();
+            for k in 0..b {
+                let t = match cls[i * b + k] {
+                    Ray1::Hit(t) => {
+                        report.kept += 1;
+                        t
+                    }
+                    c => {
+                        let tally = &mut report.ring_tallies[i];
+                        tally.repaired += 1;
+                        match c {
+                            Ray1::Missed => {
+                                report.missed += 1;
+                                tally.missed += 1;
+                            }
+                            Ray1::Outside => {
+                                report.from_outside += 1;
+                                tally.from_outside += 1;
+                            }
+                            Ray1::Neighbour => report.neighbouring_loop += 1,
+                            _ => report.outliers += 1,
+                        }
+                        let before = (1..b).find_map(|d| ts[(k + b - d) % b].map(|t| (d, t)));
+                        let after = (1..b).find_map(|d| ts[(k + d) % b].map(|t| (d, t)));
+                        match (before, after) {
+                            (Some((d0, t0)), Some((d1, t1))) if d0 + d1 - 1 <= b / 4 => {
+                                report.interpolated += 1;
+                                t0 + (t1 - t0) * d0 as f64 / (d0 + d1) as f64
+                            }
+                            _ => {
+                                report.clamped += 1;
+                                medians[i]
+                            }
+                        }
+                    }
+                };
+                let r = t * inflate;
+                lengths.push(r);
+                radial.push(f3(dirs[i][k] * r));
+            }
+        }
+        // Bends tighter than the ring: the inner wall further from the midline than the centre of
+        // curvature, so neighbouring rings cross inside the lumen.
+        for i in 1..rings.saturating_sub(1) {
+            let ds = arc[i + 1] - arc[i - 1];
+            if ds <= 0.0 {
+                continue;
+            }
+            let kv = (tan[i + 1] - tan[i - 1]) / ds;
+            let kv = kv - tan[i] * kv.dot(&tan[i]);
+            let kappa = kv.norm();
+            if kappa < 1e-12 {
+                continue;
+            }
+            let spokes: Vec<V3d> = (0..b).map(|k| dirs[i][k] * lengths[i * b + k]).collect();
+            let inner = crate::probe::section_radius(&spokes, tan[i], 1.0, kv / kappa);
+            if kappa * inner > 1.0 {
+                report.tight_bends += 1;
+            }
+        }
+        let mut sorted = lengths.clone();
+        sorted.sort_by(f64::total_cmp);
+        report.radius_mm = [0.0, 0.05, 0.5, 0.95, 1.0].map(|q| quantile(&sorted, q));
+        let mut tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
+        let repaired: Vec<bool> = cls.iter().map(|c| !matches!(c, Ray1::Hit(_))).collect();
+        report.fidelity = crate::fidelity::wall_to_surface(&tube, params.inflate, &trimesh, &repaired);
+        report.clipped = tube.clip_folds();
+        report.folds = tube.folds();
+        report.smoothing_mm = w;
+        report.max_tilt_deg = (0..rings).map(|i| normal[i].dot(&tan[i]).clamp(-1.0, 1.0).acos().to_degrees()).fold(0.0, f64::max);
+        Ok((tube, report))
+    };
+    let mut candidates: Vec<(Tube, ImportReport)> = Vec::with_capacity(ladder.len());
+    for &w in &ladder {
+        let (normal, dirs, hits) = slice_at(w);
+        let (tube, report) = finish(w, &normal, &dirs, &hits)?;
+        let clean = report.clipped.spokes == 0;
+        candidates.push((tube, report));
         if clean {
             break;
         }
     }
-    let sigma = crate::slice::choose(&counts, &ladder, &arc);
-    let (normal, dirs) = slice_at(&sigma, &mut hits);
-    let rounds = counts.len() + 1;
-    let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
-    // Orientation relative to the midline: from inside the lumen the wall's outward normal faces
-    // away from the ray's origin. The majority of first hits says which way the surface faces;
-    // the rays that see the other side hit a wall from outside, unless the surface faces both
-    // ways too often to tell.
-    let seen = hits.iter().flatten().count();
-    let away = hits.iter().flatten().filter(|h| h.away).count();
-    let flipped = 2 * away < seen;
-    let agree = if seen == 0 { 0.0 } else { away.max(seen - away) as f64 / seen as f64 };
-    let oriented = seen > 0 && agree >= ORIENTED_AGREEMENT;
-    let mut cls = vec![Ray1::Missed; rings * b];
-    for i in 0..rings {
-        for k in 0..b {
-            let Some(hit) = hits[i * b + k] else { continue };
-            let t = hit.t;
-            cls[i * b + k] = if oriented && hit.away == flipped {
-                Ray1::Outside
-            } else {
-                let h = pts[i] + dirs[i][k] * t;
-                let reach = NEIGHBOUR_ARC_MM.max(t);
-                let r = NEIGHBOUR_RATIO * t;
-                let foreign = grid.near(&h, r, |j| {
-                    let j = j as usize;
-                    (s_nominal[j] - s_nominal[i]).abs() > reach && (pts[j] - h).norm() < r && sees(&trimesh, pts[j], h)
-                });
-                if foreign {
-                    Ray1::Neighbour
-                } else {
-                    Ray1::Hit(t)
-                }
-            };
-        }
-    }
-    // Outliers: jumps against both neighbouring rings. (Not hits merely far above the ring's
-    // median: where the midline runs off the lumen's centre, or past a pocket, the far wall is
-    // continuous with its neighbours and is the ring's own; repairing it put the GCA colon's
-    // wall 2 to 12 mm off its surface there.)
-    let raw_t = |i: usize, k: usize, c: &[Ray1]| match c[i * b + k] {
-        Ray1::Hit(t) => Some(t),
-        _ => None,
-    };
-    let snapshot = cls.clone();
-    for i in 1..rings.saturating_sub(1) {
-        for k in 0..b {
-            if let (Some(t), Some(p), Some(n)) = (raw_t(i, k, &snapshot), raw_t(i - 1, k, &snapshot), raw_t(i + 1, k, &snapshot)) {
-                if t > JUMP_FACTOR * p.max(n) + JUMP_MM {
-                    cls[i * b + k] = Ray1::Outlier;
-                }
-            }
-        }
-    }
-    // Angular steps: a run of at most a quarter turn of spokes that steps up from its ring's
-    // neighbouring spoke and back down again (a ray bundle through a gap into another lumen).
-    for i in 0..rings {
-        let ts: Vec<Option<f64>> = (0..b).map(|k| raw_t(i, k, &cls)).collect();
-        let steep = |hi: f64, lo: f64| hi > JUMP_FACTOR * lo + JUMP_MM;
-        for start in 0..b {
-            let prev = (start + b - 1) % b;
-            let (Some(t0), Some(tp)) = (ts[start], ts[prev]) else { continue };
-            if !steep(t0, tp) {
-                continue;
-            }
-            // Find the step back down within a quarter turn.
-            for len in 1..=b / 4 {
-                let last = (start + len - 1) % b;
-                let next = (start + len) % b;
-                let (Some(tl), Some(tn)) = (ts[last], ts[next]) else { break };
-                if steep(tl, tn) {
-                    for d in 0..len {
-                        cls[i * b + (start + d) % b] = Ray1::Outlier;
-                    }
-                    break;
-                }
-            }
-        }
-    }
-    let enough = (b / 4).max(3);
-    let mut medians: Vec<f64> = (0..rings)
-        .map(|i| {
-            let mut v: Vec<f64> = (0..b).filter_map(|k| raw_t(i, k, &cls)).collect();
-            if v.len() >= enough {
-                median(&mut v)
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    let doubled = hits.iter().flatten().filter(|h| h.doubled).count();
-    let (mlo, mhi) =
-        (centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))), centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))));
-    let midline_beyond_surface = (0..3).map(|d| (lo[d] - mlo[d]).max(mhi[d] - hi[d]).max(0.0) as f64).fold(0.0, f64::max);
-    let mut report = ImportReport {
-        rings,
-        spokes: b,
-        centerline_mm: length,
-        inflate,
-        rays: rings * b,
-        oriented,
-        flipped: oriented && flipped,
-        orientation_agreement: agree,
-        doubled,
-        midline_beyond_surface,
-        surface_diagonal: diag,
-        turns_back,
-        ring_tallies: vec![RingTally::default(); rings],
-        ..Default::default()
-    };
-    for (n, h) in hits.iter().enumerate() {
-        if h.is_some_and(|h| h.doubled) {
-            report.ring_tallies[n / b].doubled += 1;
-        }
-    }
-    // Rings without enough hits borrow the nearest good median.
-    let mut all: Vec<f64> = cls.iter().filter_map(|c| if let Ray1::Hit(t) = c { Some(*t) } else { None }).collect();
-    let global = median(&mut all);
-    let good = medians.clone();
-    for i in 0..rings {
-        if good[i].is_nan() {
-            report.rings_borrowed += 1;
-            report.ring_tallies[i].borrowed = true;
-            let mut found = f64::NAN;
-            for d in 1..rings {
-                let cands = [i.checked_sub(d), (i + d < rings).then_some(i + d)];
-                let vals: Vec<f64> = cands.iter().flatten().map(|&j| good[j]).filter(|x| !x.is_nan()).collect();
-                if !vals.is_empty() {
-                    found = vals.iter().sum::<f64>() / vals.len() as f64;
-                    break;
-                }
-            }
-            medians[i] = if found.is_nan() {
-                if global.is_nan() {
-                    1.0
-                } else {
-                    global
-                }
-            } else {
-                found
-            };
-        }
-    }
-    // Repair and build.
-    let mut radial = Vec::with_capacity(rings * b);
-    let mut lengths = Vec::with_capacity(rings * b);
-    for i in 0..rings {
-        let ts: Vec<Option<f64>> = (0..b).map(|k| raw_t(i, k, &cls)).collect();
-        for k in 0..b {
-            let t = match cls[i * b + k] {
-                Ray1::Hit(t) => {
-                    report.kept += 1;
-                    t
-                }
-                c => {
-                    let tally = &mut report.ring_tallies[i];
-                    tally.repaired += 1;
-                    match c {
-                        Ray1::Missed => {
-                            report.missed += 1;
-                            tally.missed += 1;
-                        }
-                        Ray1::Outside => {
-                            report.from_outside += 1;
-                            tally.from_outside += 1;
-                        }
-                        Ray1::Neighbour => report.neighbouring_loop += 1,
-                        _ => report.outliers += 1,
-                    }
-                    let before = (1..b).find_map(|d| ts[(k + b - d) % b].map(|t| (d, t)));
-                    let after = (1..b).find_map(|d| ts[(k + d) % b].map(|t| (d, t)));
-                    match (before, after) {
-                        (Some((d0, t0)), Some((d1, t1))) if d0 + d1 - 1 <= b / 4 => {
-                            report.interpolated += 1;
-                            t0 + (t1 - t0) * d0 as f64 / (d0 + d1) as f64
-                        }
-                        _ => {
-                            report.clamped += 1;
-                            medians[i]
-                        }
-                    }
-                }
-            };
-            let r = t * inflate;
-            lengths.push(r);
-            radial.push(f3(dirs[i][k] * r));
-        }
-    }
-    // Bends tighter than the ring: the inner wall further from the midline than the centre of
-    // curvature, so neighbouring rings cross inside the lumen.
-    for i in 1..rings.saturating_sub(1) {
-        let ds = arc[i + 1] - arc[i - 1];
-        if ds <= 0.0 {
-            continue;
-        }
-        let kv = (tan[i + 1] - tan[i - 1]) / ds;
-        let kv = kv - tan[i] * kv.dot(&tan[i]);
-        let kappa = kv.norm();
-        if kappa < 1e-12 {
-            continue;
-        }
-        let spokes: Vec<V3d> = (0..b).map(|k| dirs[i][k] * lengths[i * b + k]).collect();
-        let inner = crate::probe::section_radius(&spokes, tan[i], 1.0, kv / kappa);
-        if kappa * inner > 1.0 {
-            report.tight_bends += 1;
-        }
-    }
-    let mut sorted = lengths.clone();
-    sorted.sort_by(f64::total_cmp);
-    report.radius_mm = [0.0, 0.05, 0.5, 0.95, 1.0].map(|q| quantile(&sorted, q));
-    let mut tube = Tube::new(pts.iter().map(|&p| f3(p)).collect(), radial, b).map_err(|e| ImportError::Invalid(format!("imported tube: {e}")))?;
-    let repaired: Vec<bool> = cls.iter().map(|c| !matches!(c, Ray1::Hit(_))).collect();
-    report.fidelity = crate::fidelity::wall_to_surface(&tube, params.inflate, &trimesh, &repaired);
-    report.clipped = tube.clip_folds();
-    report.folds = tube.folds();
-    report.slice_rounds = rounds;
-    report.tilted = (0..rings).filter(|&i| sigma[i] > base).count();
-    report.max_tilt_deg = (0..rings).map(|i| normal[i].dot(&tan[i]).clamp(-1.0, 1.0).acos().to_degrees()).fold(0.0, f64::max);
+    let fidelity: Vec<f64> = candidates.iter().map(|(_, r)| r.fidelity.p99).collect();
+    let clipped: Vec<usize> = candidates.iter().map(|(_, r)| r.clipped.spokes).collect();
+    let pick = crate::slice::pick(&fidelity, &clipped);
+    let tried = candidates.len();
+    let (tube, mut report) = candidates.swap_remove(pick);
+    report.widths_tried = tried;
     Ok((tube, report))
 }

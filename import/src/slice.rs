@@ -52,14 +52,12 @@ use crate::geom::V3d;
 /// Factor between consecutive widths tried.
 pub const GROW: f64 = 1.5;
 
-/// The widest smoothing tried (mm).
+/// The widest smoothing tried by default (mm).
 pub const WIDEST: f64 = 64.0;
 
-/// Arc (mm) each way over which a ring's choice of width counts crossings.
-pub const NEIGHBOURHOOD: f64 = 16.0;
-
-/// Width (mm) of the smoothing of the chosen widths along the arc.
-pub const BLEND: f64 = 8.0;
+/// How much farther from the surface than the truest slicing's (p99, as a fraction) a slicing's
+/// wall may lie and still be picked for clipping fewer spokes.
+pub const FIDELITY_SLACK: f64 = 0.1;
 
 /// A spoke must end short of this fraction of its way to another ring's plane.
 pub const ROOM: f64 = 0.9;
@@ -87,47 +85,24 @@ pub fn normals(raw: &[V3d], arc: &[f64], sigma: &[f64]) -> Vec<V3d> {
         .collect()
 }
 
-/// The widths tried: `base` (the import's tangent smoothing; one ring spacing if 0) growing by
-/// [`GROW`] up to [`WIDEST`].
-pub fn ladder(base: f64, spacing: f64) -> Vec<f64> {
-    let mut w = if base > 0.0 { base } else { spacing };
+/// The widths tried: `base` (the import's tangent smoothing; one ring spacing if 0 and `widest`
+/// is more) growing by [`GROW`] up to `widest` ([`WIDEST`] by default).
+pub fn ladder(base: f64, spacing: f64, widest: f64) -> Vec<f64> {
+    let mut w = if base > 0.0 || widest <= 0.0 { base } else { spacing.min(widest) };
     let mut out = vec![w];
-    while w * GROW <= WIDEST {
+    while w > 0.0 && w * GROW <= widest {
         w *= GROW;
         out.push(w);
     }
     out
 }
 
-/// Each ring's width: the rung of `ladder` at which the crossings `counts[rung][ring]`, summed
-/// over the rings within [`NEIGHBOURHOOD`] of arc, are fewest (the narrowest such rung), then
-/// smoothed along the arc (geometric mean, Gaussian of [`BLEND`]) so that neighbouring planes
-/// change gradually. `counts` may stop short of the ladder's top (a rung with no crossing ends
-/// the search).
-pub fn choose(counts: &[Vec<u32>], ladder: &[f64], arc: &[f64]) -> Vec<f64> {
-    let n = arc.len();
-    let window = |c: &[u32]| -> Vec<u64> {
-        let mut pre = vec![0u64; n + 1];
-        for i in 0..n {
-            pre[i + 1] = pre[i] + c[i] as u64;
-        }
-        (0..n)
-            .map(|i| {
-                let lo = arc.partition_point(|&s| s < arc[i] - NEIGHBOURHOOD);
-                let hi = arc.partition_point(|&s| s <= arc[i] + NEIGHBOURHOOD);
-                pre[hi] - pre[lo]
-            })
-            .collect()
-    };
-    let near: Vec<Vec<u64>> = counts.iter().map(|c| window(c)).collect();
-    let log: Vec<f64> = (0..n)
-        .map(|i| {
-            let best = (0..near.len()).min_by_key(|&r| (near[r][i], r)).unwrap_or(0);
-            ladder[best].ln()
-        })
-        .collect();
-    let blended = crate::geom::smooth_scalar(&log, arc, BLEND);
-    blended.into_iter().map(f64::exp).collect()
+/// Which slicing to keep, given each one's wall-to-surface distance (p99, before inflation)
+/// and spokes clipped: of those whose wall lies within [`FIDELITY_SLACK`] of the truest one's,
+/// the one with the fewest spokes clipped (the narrowest of equals).
+pub fn pick(fidelity_p99: &[f64], clipped: &[usize]) -> usize {
+    let truest = fidelity_p99.iter().copied().fold(f64::INFINITY, f64::min);
+    (0..fidelity_p99.len()).filter(|&r| fidelity_p99[r] <= truest * (1.0 + FIDELITY_SLACK)).min_by_key(|&r| (clipped[r], r)).unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -146,19 +121,17 @@ mod tests {
     }
 
     #[test]
-    fn each_ring_takes_the_narrowest_width_its_neighbourhood_crosses_least_at() {
-        let ladder = ladder(4.0, 1.0);
+    fn the_ladder_grows_from_the_imports_smoothing_and_the_pick_weighs_the_wall_first() {
+        let ladder = ladder(4.0, 1.0, WIDEST);
         assert_eq!(ladder.first(), Some(&4.0));
         assert!(ladder.windows(2).all(|w| (w[1] / w[0] - GROW).abs() < 1e-12) && *ladder.last().unwrap() <= WIDEST);
-        assert_eq!(super::ladder(0.0, 0.5)[0], 0.5);
-        // 200 rings 1 mm apart; rings 100 to 110 cross at the first two rungs, not the third.
-        let arc: Vec<f64> = (0..200).map(f64::from).collect();
-        let mut counts = vec![vec![0u32; 200]; 3];
-        for c in &mut counts[..2] {
-            c[100..=110].iter_mut().for_each(|x| *x = 3);
-        }
-        let sigma = choose(&counts, &ladder, &arc);
-        assert!((sigma[0] - 4.0).abs() < 1e-9 && (sigma[199] - 4.0).abs() < 1e-9, "{sigma:?}");
-        assert!(sigma[105] > 6.0 && sigma[105] <= ladder[2] + 1e-9, "{}", sigma[105]);
+        assert_eq!(super::ladder(0.0, 0.5, WIDEST)[0], 0.5);
+        assert_eq!(super::ladder(4.0, 1.0, 4.0), [4.0]);
+        assert_eq!(super::ladder(0.0, 1.0, 0.0), [0.0]);
+        // The fewest clipped among the walls within 10% of the truest (0.5): rung 2.
+        assert_eq!(pick(&[0.75, 0.5, 0.51, 1.5], &[3000, 140, 100, 20]), 2);
+        // Equal clips: the narrowest.
+        assert_eq!(pick(&[0.5, 0.5], &[7, 7]), 0);
+        assert_eq!(pick(&[0.2, 0.9], &[50, 0]), 0);
     }
 }

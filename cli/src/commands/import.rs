@@ -50,13 +50,18 @@ pub struct ImportArgs {
     #[arg(long, default_value_t = 1.0)]
     pub inflate: f32,
     /// Gaussian smoothing of the midline's tangents along the arc, sigma, in the mesh's unit.
-    /// Where a bend is tighter than the lumen is wide, the import widens it there by itself
-    /// until no two ring planes cross inside the lumen.
+    /// The narrowest width tried (see --widest-smoothing).
     #[arg(long, default_value_t = 4.0)]
     pub tangent_smoothing: f32,
     /// Gaussian smoothing of the midline's points, sigma, in the mesh's unit.
     #[arg(long, default_value_t = 1.0)]
     pub point_smoothing: f32,
+    /// The widest smoothing of the midline's tangents tried for the ring planes, in the mesh's
+    /// unit: the import slices the tube at widths from --tangent-smoothing up to this and keeps
+    /// the wall truest to the surface with the fewest spokes clipped at a crossing. Equal to
+    /// --tangent-smoothing, the planes follow that one smoothing.
+    #[arg(long, default_value_t = 64.0)]
+    pub widest_smoothing: f32,
     /// The model to write: the method's text format when the name ends in `.txt`, else Lumen's
     /// native format (which also keeps the import's fidelity, for `lumen bench detect --model`).
     #[arg(short, long)]
@@ -64,7 +69,14 @@ pub struct ImportArgs {
 }
 
 pub fn run(a: ImportArgs) -> CliResult {
-    let params = ImportParams { spokes: a.spokes, ring_spacing: a.ring_spacing, inflate: a.inflate, tangent_smoothing_mm: a.tangent_smoothing, point_smoothing_mm: a.point_smoothing };
+    let params = ImportParams {
+        spokes: a.spokes,
+        ring_spacing: a.ring_spacing,
+        inflate: a.inflate,
+        tangent_smoothing_mm: a.tangent_smoothing,
+        point_smoothing_mm: a.point_smoothing,
+        widest_smoothing_mm: a.widest_smoothing,
+    };
     // Refused before the files are read, naming the flag: a wrong flag should not cost a mesh
     // load.
     if let Err(e) = params.validate() {
