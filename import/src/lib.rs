@@ -7,7 +7,10 @@
 //!    Gaussian smoothing of its points), smooths its tangents (CT midlines are noisy and ring
 //!    planes follow the tangent), and carries a rotation-minimising frame `(n, b)` along it. At
 //!    each ring it casts `spokes` rays in the ring's plane, from the midline point, with parry3d
-//!    against the surface's `TriMesh`, and keeps the first wall hit as the radial vector.
+//!    against the surface's `TriMesh`, and keeps the first wall hit as the radial vector. It
+//!    does so at each width of tangent smoothing of a ladder and keeps the slicing whose wall is
+//!    truest to the surface with the fewest spokes reaching into another ring's section, which
+//!    it clips ([`slice`]): every tube it builds passes the fold check.
 //! 3. Rays that do not give the ring's own wall are **repaired, and counted by kind** in the
 //!    [`ImportReport`] (never silently): rays that miss; rays whose first hit is a wall seen from
 //!    outside; rays that reach a *neighbouring loop* where the colon touches itself and the
@@ -25,7 +28,8 @@
 //!    inside; a surface whose normals face its lumen is read flipped), doubled walls are
 //!    counted, and the wall (before inflation) is measured against the surface
 //!    ([`fidelity`]). [`quality::assess`] turns the report into named problems with the rings
-//!    they touch; `lumen import` refuses a model with any.
+//!    they touch; `lumen import` refuses a model with any, and [`import`] (the one way in for
+//!    the scenes, benchmarks and simulation) returns them as [`ImportError::Refused`].
 //!
 //! Radial vectors run counter-clockwise about the midline's tangent, spoke 0 along the frame's
 //! normal, as in [`crate::colon`].
@@ -37,6 +41,7 @@
 //! - [`fidelity`]: the imported wall's distance to the surface.
 //! - [`quality`]: thresholds on the report, and the problems they find.
 //! - [`fit`]: where the lumen is narrower than a scope.
+//! - [`slice`]: the ring planes' widths tried, and which slicing is kept.
 //! - [`geom`]: arc length, smoothing along the arc, rotation-minimising frames (f64).
 //! - [`probe`]: tube coordinates for checks (where a point is along a tube, its distance to
 //!   the midline and to the wall), and [`probe::clearance`] (wall overlap, bend tightness).
