@@ -185,7 +185,7 @@ fn the_readmes_import_of_the_real_colon_is_the_gca_scenes_colon_at_48_spokes() {
         .arg(&mesh)
         .arg("--centerline")
         .arg(&line)
-        .args(["--spokes", "48", "--tangent-smoothing", "24", "--inflate", "2", "-o"])
+        .args(["--spokes", "48", "--inflate", "2", "-o"])
         .arg(d.join("gca.lumen"))
         .output()
         .unwrap();
