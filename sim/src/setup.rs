@@ -42,6 +42,12 @@ pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, GcaError> {
     gca::load(dir, GCA_INFLATE)
 }
 
+/// [`gca_colon`] inflated `inflate` times instead (1: as scanned, collapsed, narrower than a
+/// scope in places; 4: a lumen far wider than its flexures' bend radius).
+pub fn gca_colon_inflated(dir: Option<&Path>, inflate: f32) -> Result<Tube, GcaError> {
+    gca::load(dir, inflate)
+}
+
 /// The GCA colon's default inflation (the scan is not insufflated): `ImportParams::gca`'s.
 pub use lumen_import::GCA_INFLATE;
 
@@ -188,8 +194,13 @@ pub fn model_colon(path: &Path) -> Result<Tube, ModelFileError> {
 /// GCA colon from `data` (its files' folder, or the default place); the error says what is
 /// missing.
 pub fn colon(kind: ColonKind, seed: u64, data: Option<&Path>) -> Result<Tube, GcaError> {
+    colon_inflated(kind, seed, data, GCA_INFLATE)
+}
+
+/// [`colon`], with the GCA colon inflated `inflate` times (the generated ones ignore it).
+pub fn colon_inflated(kind: ColonKind, seed: u64, data: Option<&Path>, inflate: f32) -> Result<Tube, GcaError> {
     match kind.generated(seed) {
         Some(p) => Ok(generate(&ColonParams { length_mm: 1500.0, ..p })),
-        None => gca_colon(data),
+        None => gca_colon_inflated(data, inflate),
     }
 }

@@ -180,15 +180,7 @@ fn the_readmes_import_of_the_real_colon_is_the_gca_scenes_colon_at_48_spokes() {
     };
     let d = dir("gca");
     // The README's "bring your own colon" command.
-    let out = Command::new(LUMEN)
-        .arg("import")
-        .arg(&mesh)
-        .arg("--centerline")
-        .arg(&line)
-        .args(["--spokes", "48", "--inflate", "2", "-o"])
-        .arg(d.join("gca.lumen"))
-        .output()
-        .unwrap();
+    let out = Command::new(LUMEN).arg("import").arg(&mesh).arg("--centerline").arg(&line).args(["--spokes", "48", "--inflate", "2", "-o"]).arg(d.join("gca.lumen")).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && stdout.contains("Wall (before inflation) to surface"), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
     let (Body::Tube(t), info) = lumen_detect::model::load_native_with(&std::fs::read(d.join("gca.lumen")).unwrap()).unwrap() else { panic!("not a tube") };

@@ -36,6 +36,10 @@ pub struct RunArgs {
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
     #[arg(long)]
     pub data: Option<PathBuf>,
+    /// Inflation of the GCA colon (`--scene gca`): its scan is collapsed; 1 is as scanned
+    /// (narrower than the scope in places), 2 the default, 4 a lumen far wider than its flexures.
+    #[arg(long, default_value_t = lumen_sim::setup::GCA_INFLATE)]
+    pub inflate: f32,
     /// A colon model written by `lumen import` (native, or the text format when it ends in
     /// `.txt`), in mm; replaces --scene.
     #[arg(long, value_name = "FILE")]
@@ -56,6 +60,7 @@ impl RunArgs {
     pub fn colon_name(&self) -> String {
         match &self.model {
             Some(p) => format!("model {}", p.display()),
+            None if self.scene == ColonKind::Gca && self.inflate != lumen_sim::setup::GCA_INFLATE => format!("gca inflated x{}", self.inflate),
             None => self.scene.name().into(),
         }
     }
@@ -68,7 +73,7 @@ impl RunArgs {
                 e => CliError::Model { path: path.clone(), message: e.to_string() },
             });
         }
-        let colon = setup::colon(self.scene, seed, self.data.as_deref()).map_err(|source| CliError::Colon { scene: self.scene.name(), source })?;
+        let colon = setup::colon_inflated(self.scene, seed, self.data.as_deref(), self.inflate).map_err(|source| CliError::Colon { scene: self.scene.name(), source })?;
         if self.scene == ColonKind::Gca {
             eprintln!("data: {}", lumen_scene::gca::attribution());
         }
@@ -92,6 +97,7 @@ impl RunArgs {
     /// The flags to give a `lumen sim` child for the same run (the colon and the scope).
     pub fn child_args(&self) -> Vec<std::ffi::OsString> {
         let mut a: Vec<std::ffi::OsString> = vec!["--scene".into(), self.scene.name().into()];
+        a.extend(["--inflate".into(), self.inflate.to_string().into()]);
         if let Some(d) = &self.data {
             a.extend(["--data".into(), d.into()]);
         }
