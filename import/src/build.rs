@@ -448,7 +448,6 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let pts: Vec<V3d> = (0..rings).map(|i| at_arc(&smooth, &raw_arc, i as f64 * spacing)).collect();
     let arc = arc_lengths(&pts);
     let tan = tangents(&pts, &arc, params.tangent_smoothing_mm as f64);
-    let raw_tan = tangents(&pts, &arc, 0.0);
     let s_nominal: Vec<f64> = (0..rings).map(|i| i as f64 * spacing).collect();
 
     // Surface.
@@ -505,7 +504,7 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
     let base = (params.tangent_smoothing_mm as f64).max(0.0);
     let ladder = crate::slice::ladder(base, spacing, params.widest_smoothing_mm as f64);
     let slice_at = |w: f64| {
-        let normal = crate::slice::normals(&raw_tan, &arc, &vec![w; rings]);
+        let normal = tangents(&pts, &arc, w);
         let e1 = rotation_minimising(&pts, &normal, any_perpendicular(normal[0]));
         let dirs: Vec<Vec<V3d>> = (0..rings).map(|i| ring_dirs(normal[i], e1[i])).collect();
         let mut hits: Vec<Option<FirstHit>> = vec![None; rings * b];

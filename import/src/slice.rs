@@ -11,43 +11,42 @@
 //! ([`lumen_detect::model::Tube::folds`], the check every import reports): then no point of the
 //! lumen is in two sections.
 //!
-//! **The choice: per ring, the tangent smoothing its neighbourhood crosses least at.** Ring
-//! `i`'s normal is the midline's unit tangent averaged along the arc with a Gaussian of width
-//! `sigma_i`:
+//! **The choice: one smoothing width per colon, the one whose wall is truest with the fewest
+//! crossings.** Ring `i`'s normal is the midline's unit tangent averaged along the arc with a
+//! Gaussian of width `sigma` ([`crate::geom::tangents`]):
 //!
 //! ```text
-//! n_i = normalize( sum_m exp(-(s_m - s_i)^2 / (2 sigma_i^2)) t_m )
+//! n_i = normalize( sum_m exp(-(s_m - s_i)^2 / (2 sigma^2)) t_m )
 //! ```
 //!
 //! A turn of the tangent by `Theta` turns the smoothed normals by about
 //! `Theta / (sigma sqrt(2 pi))` per unit of arc, and two planes `h` apart whose normals differ by
 //! `delta` meet about `h / delta` from the midline: a wider `sigma` fans the planes of a bend
 //! about a line further out, beyond a lumen of reach `rho` once
-//! `sigma > rho Theta / sqrt(2 pi)`. Too wide a `sigma` fails the other way: at a sharp turn
-//! the smoothed normal lags the midline, the planes lie along the tube and cross again. So no
-//! one width serves a whole colon (on the GCA colon at inflation 1, the spokes that cross fall
-//! from 5,015 at 2 mm to 36 at 16 mm and rise again to 222 at 24 and 617 at 32). The import
-//! slices the whole tube at each width of a [`ladder`] (from the import's tangent smoothing,
-//! by [`GROW`], to [`WIDEST`]; it stops at the first width with no crossing), counts each ring's
-//! crossings at each, and gives each ring the narrowest width at which the crossings within
-//! [`NEIGHBOURHOOD`] of it are fewest ([`choose`]), blended along the arc ([`BLEND`]) so that
-//! neighbouring planes turn gradually. The tube is sliced once more at those widths.
+//! `sigma > rho Theta / sqrt(2 pi)`. Too wide a `sigma` fails the other way: at a sharp turn the
+//! smoothed normal lags the midline, planes turn far off the tube's own direction, cross again
+//! and cut neighbouring loops (on the GCA colon at inflation 1, the spokes that cross fall from
+//! 3,079 at 4 mm to 36 at 16 mm and rise again to 507 at 30 mm, where planes turn up to 84
+//! degrees off the 4 mm tangent and the wall lies 1.52 mm from the surface at p99). So the
+//! import slices the whole tube at each width of a [`ladder`] (from the import's tangent
+//! smoothing, by [`GROW`], to [`WIDEST`]; it stops at the first width where nothing crosses),
+//! finishes each slicing (repairs, fidelity, clip), and keeps the one whose wall lies within
+//! [`FIDELITY_SLACK`] of the truest one's p99 with the fewest spokes clipped ([`pick`]).
 //!
-//! **What is left is clipped.** A spoke whose tip still lies past another ring's plane inside its
-//! section (on the GCA colon at inflation 1, 11 of 39,968) is shortened along itself to just short
-//! of the crossing ([`lumen_detect::model::Tube::clip_folds`]); shortening only shrinks sections,
-//! so afterwards the check finds none. On an inflated colon the same clip is where loops pressed
-//! on each other flatten their walls.
+//! **What still crosses is clipped.** A spoke whose tip still lies past another ring's plane
+//! inside its section is shortened along itself to just short of the crossing
+//! ([`lumen_detect::model::Tube::clip_folds`]); shortening only shrinks sections, so afterwards
+//! the check finds none. On an inflated colon the same clip is where loops pressed on each other
+//! flatten their walls. Where a lumen doubles back wider than its bend (a hairpin whose legs'
+//! lumens meet), no planes keep the legs apart and the clipped wall is not the surface's.
 //!
-//! Tried and left: widening `sigma` round by round over the rings between crossing pairs: on the
-//! GCA colon the crossings fell to a quarter in five rounds and then rose past where they started,
-//! as the wide widths lagged the sharp turns (smoothing the midline's points with the normals did
-//! the same, and moved ring points off the lumen's centre: fidelity p99 28 mm). Shortening every
-//! spoke that reached past a ring's plane within that ring's longest spoke, on planes along the
-//! tangent (`Tube::unfold`): it cut 9,156 spokes of the GCA colon, moved the wall inward where
-//! the scope was, and its colonoscopy went from 0.60 to 1.32 mm.
-
-use crate::geom::V3d;
+//! Tried and left (docs/decisions/import.md): a width per ring (the one its neighbourhood
+//! crosses least at): fewer spokes clipped, but planes turned into the other leg of a hairpin
+//! and the scope went 6.1 mm deep there; widening the width round by round where sections
+//! crossed: the crossings fell to a quarter in five rounds, then rose past where they started.
+//! Shortening every spoke that reached past a ring's plane within that ring's longest spoke, on
+//! planes along the tangent (`Tube::unfold`): it cut 9,156 spokes of the GCA colon, moved the
+//! wall inward where the scope was, and its colonoscopy went from 0.60 to 1.32 mm.
 
 /// Factor between consecutive widths tried.
 pub const GROW: f64 = 1.5;
@@ -58,32 +57,6 @@ pub const WIDEST: f64 = 64.0;
 /// How much farther from the surface than the truest slicing's (p99, as a fraction) a slicing's
 /// wall may lie and still be picked for clipping fewer spokes.
 pub const FIDELITY_SLACK: f64 = 0.1;
-
-/// A spoke must end short of this fraction of its way to another ring's plane.
-pub const ROOM: f64 = 0.9;
-
-/// Unit plane normals: ring `i`'s is `raw`, the midline's unit tangents, averaged along the arc
-/// with a Gaussian of width `sigma[i]` (window 3 widths, truncated at the ends; `sigma[i] <= 0`
-/// keeps `raw[i]`).
-pub fn normals(raw: &[V3d], arc: &[f64], sigma: &[f64]) -> Vec<V3d> {
-    let n = raw.len();
-    (0..n)
-        .map(|i| {
-            let w = sigma[i];
-            if w <= 0.0 {
-                return raw[i];
-            }
-            let lo = arc.partition_point(|&s| s < arc[i] - 3.0 * w);
-            let hi = arc.partition_point(|&s| s <= arc[i] + 3.0 * w);
-            let mut acc = V3d::zeros();
-            for m in lo..hi {
-                let d = (arc[m] - arc[i]) / w;
-                acc += raw[m] * (-0.5 * d * d).exp();
-            }
-            acc.try_normalize(1e-12).unwrap_or(raw[i])
-        })
-        .collect()
-}
 
 /// The widths tried: `base` (the import's tangent smoothing; one ring spacing if 0 and `widest`
 /// is more) growing by [`GROW`] up to `widest` ([`WIDEST`] by default).
@@ -108,17 +81,6 @@ pub fn pick(fidelity_p99: &[f64], clipped: &[usize]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_width_of_zero_keeps_the_tangents_and_a_wide_one_averages_them() {
-        let raw: Vec<V3d> = (0..20).map(|i| if i < 10 { V3d::x() } else { V3d::y() }).collect();
-        let arc: Vec<f64> = (0..20).map(f64::from).collect();
-        assert_eq!(normals(&raw, &arc, &[0.0; 20]), raw);
-        let wide = normals(&raw, &arc, &[1e3; 20]);
-        for n in wide {
-            assert!((n - V3d::new(1.0, 1.0, 0.0).normalize()).norm() < 1e-3, "{n}");
-        }
-    }
 
     #[test]
     fn the_ladder_grows_from_the_imports_smoothing_and_the_pick_weighs_the_wall_first() {
