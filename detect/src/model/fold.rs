@@ -1,4 +1,5 @@
-//! Spokes that reach past another ring's plane, and the tube without them ([`Tube::unfold`]).
+//! Spokes that reach past another ring's plane: the fold check ([`Tube::folds`]), and the tube
+//! without them ([`Tube::clip_folds`], [`Tube::unfold`]).
 //!
 //! Where a tube bends tighter than its lumen is wide, the planes of the rings around the bend
 //! cross inside the lumen, on the inside of the bend. A spoke longer than its way to such a
@@ -17,13 +18,22 @@
 //! ```
 //!
 //! where it crosses to the wrong side: past the plane of a later ring (`j > i`, `d . n_j > 0`,
-//! `C_i` behind it) or behind an earlier one (`j < i`, `d . n_j < 0`). A crossing counts only
-//! where it lies within ring `j`'s own reach (its longest spoke) of `C_j`: elsewhere the two
-//! planes meet outside both sections (a gentle bend's planes cross far outside the lumen). Each
-//! spoke longer than [`KEEP`] of its nearest crossing within [`WINDOW`] rings is shortened to
-//! that, along its own direction, so it stays in its ring's plane; the rest of the wall is left
-//! as it was. The room left ([`KEEP`]) is for the wall to give outward (a simulator moves spoke
-//! tips outward where the scope presses) without passing the crossing.
+//! `C_i` behind it) or behind an earlier one (`j < i`, `d . n_j < 0`), within [`WINDOW`] rings.
+//!
+//! - **The fold check** ([`Tube::folds`], [`Within::Section`]) counts a crossing where it lies
+//!   inside ring `j`'s section, the polygon of its spoke tips, and before the spoke's own tip: a
+//!   point of the lumen in two sections. Elsewhere the two planes meet outside the sections (a
+//!   gentle bend's planes cross far outside the lumen; a loop's far along the tube, beyond its
+//!   wall). [`Tube::clip_folds`] shortens each such spoke to [`CLIP`] of its way there, after
+//!   which the check finds none; `lumen import` clips what its choice of planes leaves.
+//! - **[`Tube::unfold`]** ([`Within::Reach`]), for the generated colons, counts a crossing
+//!   within ring `j`'s own reach (its longest spoke) of `C_j`, and shortens each spoke longer
+//!   than [`KEEP`] of its way to its nearest crossing to that. The room left is for the wall to
+//!   give outward (a simulator moves spoke tips outward where the scope presses) without
+//!   passing the crossing.
+//!
+//! Either shortens a spoke along its own direction, so it stays in its ring's plane; the rest
+//! of the wall is left as it was.
 //!
 //! The ring normals are the ones the detector reads ([`ring_plane`]): each ring's area normal
 //! from four of its spokes, oriented along the chord through its neighbours, the chord itself

@@ -8,7 +8,7 @@ mod fold;
 mod native;
 mod text;
 
-pub use fold::{crossings as fold_crossings, FoldReport, Within as FoldWithin, KEEP as FOLD_KEEP, WINDOW as FOLD_WINDOW};
+pub use fold::{crossings as fold_crossings, FoldReport, Within as FoldWithin, CLIP as FOLD_CLIP, KEEP as FOLD_KEEP, WINDOW as FOLD_WINDOW};
 pub use native::{load_native, load_native_with, save_native, save_native_with};
 pub use text::{parse_text, to_text};
 
