@@ -513,8 +513,13 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
         }
         (normal, dirs, hits)
     };
+    // What every slicing shares: which rings lie near a wall point, how far the midline reaches
+    // beyond the surface.
+    let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
+    let (mlo, mhi) =
+        (centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))), centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))));
+    let midline_beyond_surface = (0..3).map(|d| (lo[d] - mlo[d]).max(mhi[d] - hi[d]).max(0.0) as f64).fold(0.0, f64::max);
     let finish = |w: f64, normal: &[V3d], dirs: &[Vec<V3d>], hits: &[Option<FirstHit>]| -> Result<(Tube, ImportReport), ImportError> {
-        let grid = Grid::new(&pts, 8.0f64.max(2.0 * spacing));
         // Orientation relative to the midline: from inside the lumen the wall's outward normal faces
         // away from the ray's origin. The majority of first hits says which way the surface faces;
         // the rays that see the other side hit a wall from outside, unless the surface faces both
@@ -602,11 +607,6 @@ pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -
             })
             .collect();
         let doubled = hits.iter().flatten().filter(|h| h.doubled).count();
-        let (mlo, mhi) = (
-            centerline.points.iter().fold([f32::INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].min(p[d]))),
-            centerline.points.iter().fold([f32::NEG_INFINITY; 3], |a, p| [0, 1, 2].map(|d| a[d].max(p[d]))),
-        );
-        let midline_beyond_surface = (0..3).map(|d| (lo[d] - mlo[d]).max(mhi[d] - hi[d]).max(0.0) as f64).fold(0.0, f64::max);
         let mut report = ImportReport {
             rings,
             spokes: b,

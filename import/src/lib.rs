@@ -94,18 +94,18 @@ pub enum ImportError {
 /// simulation) comes through here; `lumen import --force` is the one way past it.
 pub fn import(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(lumen_detect::Tube, ImportReport), ImportError> {
     let (tube, report) = build_tube(mesh, centerline, params)?;
-    let problems = assess(&report, &Thresholds::default());
-    if problems.is_empty() {
-        Ok((tube, report))
-    } else {
-        Err(ImportError::Refused { problems })
-    }
+    refused(assess(&report, &Thresholds::default()))?;
+    Ok((tube, report))
 }
 
 /// A tube from a model file (or anywhere but [`import`]) behind the gate's checks on the tube
 /// alone ([`quality::check_tube`]): a model that folds is refused with its rings.
 pub fn check(tube: &lumen_detect::Tube) -> Result<(), ImportError> {
-    let problems = quality::check_tube(tube);
+    refused(quality::check_tube(tube))
+}
+
+/// The gate's verdict: [`ImportError::Refused`] with the problems, if there are any.
+fn refused(problems: Vec<Problem>) -> Result<(), ImportError> {
     if problems.is_empty() {
         Ok(())
     } else {

@@ -42,12 +42,6 @@ pub fn gca_colon(dir: Option<&Path>) -> Result<Tube, GcaError> {
     gca::load(dir, GCA_INFLATE)
 }
 
-/// [`gca_colon`] inflated `inflate` times instead (1: as scanned, collapsed, narrower than a
-/// scope in places; 4: a lumen far wider than its flexures' bend radius).
-pub fn gca_colon_inflated(dir: Option<&Path>, inflate: f32) -> Result<Tube, GcaError> {
-    gca::load(dir, inflate)
-}
-
 /// The GCA colon's default inflation (the scan is not insufflated): `ImportParams::gca`'s.
 pub use lumen_import::GCA_INFLATE;
 
@@ -197,10 +191,12 @@ pub fn colon(kind: ColonKind, seed: u64, data: Option<&Path>) -> Result<Tube, Gc
     colon_inflated(kind, seed, data, GCA_INFLATE)
 }
 
-/// [`colon`], with the GCA colon inflated `inflate` times (the generated ones ignore it).
+/// [`colon`], with the GCA colon inflated `inflate` times (1: as scanned, collapsed, narrower
+/// than a scope in places; 4: a lumen far wider than its flexures' bend radius); the generated
+/// ones ignore it.
 pub fn colon_inflated(kind: ColonKind, seed: u64, data: Option<&Path>, inflate: f32) -> Result<Tube, GcaError> {
     match kind.generated(seed) {
         Some(p) => Ok(generate(&ColonParams { length_mm: 1500.0, ..p })),
-        None => gca_colon_inflated(data, inflate),
+        None => gca::load(data, inflate),
     }
 }
