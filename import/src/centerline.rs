@@ -21,6 +21,26 @@ impl Centerline {
     }
 }
 
+/// Writes `line` as CSV with a header: `s_mm,x_mm,y_mm,z_mm` (`s_mm` only when the line has
+/// arc lengths), one point per row, which [`parse_centerline_csv`] reads back exactly.
+pub fn write_centerline_csv(line: &Centerline, out: &mut impl std::io::Write) -> std::io::Result<()> {
+    match &line.s {
+        Some(s) => {
+            writeln!(out, "s_mm,x_mm,y_mm,z_mm")?;
+            for (p, s) in line.points.iter().zip(s) {
+                writeln!(out, "{s},{},{},{}", p[0], p[1], p[2])?;
+            }
+        }
+        None => {
+            writeln!(out, "x_mm,y_mm,z_mm")?;
+            for p in &line.points {
+                writeln!(out, "{},{},{}", p[0], p[1], p[2])?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Loads a midline by extension: `.csv` and `.txt` as [`load_centerline_csv`] reads them,
 /// `.json` as [`parse_centerline_json`]; other files are JSON when they start with `[` or `{`,
 /// else CSV. Errors name the file.

@@ -58,8 +58,8 @@ pub mod slice;
 pub mod units;
 
 pub use build::{build_tube, ImportParams, ImportReport, RingTally, GCA_INFLATE};
-pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, Centerline};
-pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, Mesh, SURFACE_FORMATS};
+pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, write_centerline_csv, Centerline};
+pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, write_obj, Mesh, SURFACE_FORMATS};
 pub use quality::{assess, Cause, Problem, Thresholds};
 pub use units::Unit;
 

@@ -435,3 +435,18 @@ fn json_midline_errors_name_the_point_and_the_file() {
     assert!(e.contains("points"), "{e}");
     assert!(parse_centerline_json("[[0,0,0]]").is_err(), "one point is not a midline");
 }
+
+/// The writers read back exactly: an OBJ of awkward floats, midlines with and without arc lengths.
+#[test]
+fn obj_and_midline_writers_read_back_exactly() {
+    let m = Mesh { vertices: vec![[0.1, -1e-7, 123456.79], [1.0 / 3.0, 2.5e10, -0.0], [7.0, 8.0, 9.0]], triangles: vec![[0, 1, 2], [2, 1, 0]] };
+    let mut text = Vec::new();
+    write_obj(&m, &mut text).unwrap();
+    assert_eq!(parse_obj(std::str::from_utf8(&text).unwrap()).unwrap(), m);
+    for s in [Some(vec![0.0, 0.1, 1.0 / 3.0]), None] {
+        let line = Centerline { points: vec![[0.1, 0.2, 0.3], [1.0 / 3.0, -4.0, 5e-5], [7.0, 8.0, 9.25]], s, radius_median: None };
+        let mut csv = Vec::new();
+        write_centerline_csv(&line, &mut csv).unwrap();
+        assert_eq!(parse_centerline_csv(std::str::from_utf8(&csv).unwrap()).unwrap(), line);
+    }
+}

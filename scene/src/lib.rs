@@ -35,6 +35,8 @@ pub mod colon;
 pub mod endoscope;
 pub mod frames;
 pub mod gca;
+pub mod insufflated;
+pub mod nets;
 mod rng;
 
 pub use colon::{generate, ColonParams};

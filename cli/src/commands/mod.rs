@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod certs;
 pub mod demo;
+pub mod generate;
 pub mod import;
 pub mod record;
 pub mod replay;
@@ -38,6 +39,9 @@ pub enum Command {
     Status(status::StatusArgs),
     /// Build a tube model from a triangle surface and its midline (ray casts per ring).
     Import(import::ImportArgs),
+    /// Write a seeded insufflated colon (surface and midline) for `lumen import`: lumens wider
+    /// than their bends, elliptical, with deep folds and a canal narrower than a scope.
+    Generate(generate::GenerateArgs),
     /// Run the colonoscopy physics against the daemon, as a lab's own engine would.
     Sim(sim::SimArgs),
     /// The whole loop in one command: daemon, physics and recorder, a progress bar, a report.
@@ -65,6 +69,7 @@ impl Cli {
             Command::Router(a) => done(router::run(a)),
             Command::Status(a) => done(status::run(a)),
             Command::Import(a) => done(import::run(a)),
+            Command::Generate(a) => done(generate::run(a)),
             Command::Sim(a) => sim::run(a),
             Command::Demo(a) => demo::run(a),
             Command::Record(a) => done(record::run(a)),

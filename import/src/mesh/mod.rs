@@ -7,7 +7,7 @@ mod stl;
 mod vtk;
 mod vtp;
 
-pub use obj::parse_obj;
+pub use obj::{parse_obj, write_obj};
 pub use ply::parse_ply;
 use stl::is_binary_stl;
 pub use stl::parse_stl;

@@ -3,6 +3,18 @@
 use super::{no_triangles, num, perr, Mesh};
 use crate::ImportError;
 
+/// Writes `mesh` as Wavefront OBJ text (`v` and 1-based `f` lines), which [`parse_obj`] reads
+/// back exactly (Rust's shortest round-trip `f32` formatting).
+pub fn write_obj(mesh: &Mesh, out: &mut impl std::io::Write) -> std::io::Result<()> {
+    for v in &mesh.vertices {
+        writeln!(out, "v {} {} {}", v[0], v[1], v[2])?;
+    }
+    for t in &mesh.triangles {
+        writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    Ok(())
+}
+
 /// Parses Wavefront OBJ text: `v x y z [w]` and `f` lines (indices 1-based or negative, in the
 /// forms `i`, `i/t`, `i/t/n`, `i//n`); polygons are fanned from their first vertex; every other
 /// line (normals, texture coordinates, groups, materials, comments) is ignored.
