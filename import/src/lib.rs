@@ -46,6 +46,7 @@
 //! - [`probe`]: tube coordinates for checks (where a point is along a tube, its distance to
 //!   the midline and to the wall), and [`probe::clearance`] (wall overlap, bend tightness).
 
+pub mod axis;
 pub mod build;
 pub mod centerline;
 pub mod fidelity;
@@ -57,7 +58,7 @@ pub mod quality;
 pub mod slice;
 pub mod units;
 
-pub use build::{build_tube, ImportParams, ImportReport, RingTally, GCA_INFLATE};
+pub use build::{build_tube, ImportParams, ImportReport, Retraced, RingTally, GCA_INFLATE, RETRACE_GAIN};
 pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, write_centerline_csv, Centerline};
 pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, write_obj, Mesh, SURFACE_FORMATS};
 pub use quality::{assess, Cause, Problem, Thresholds};

@@ -55,7 +55,7 @@ pub fn run(a: GenerateArgs) -> CliResult {
     println!("insufflated colon, seed {}: {:.0} mm of midline, {} triangles", a.seed, colon.length_mm, colon.mesh.triangles.len());
     for b in &colon.bends {
         println!(
-            "  {} {:.0} mm in: turns {:.0} degrees at a bend radius of {:.1} mm, the lumen {:.1} mm wide ({:.2} of it), rolled {:.0} degrees",
+            "  {} {:.0} mm in: turns {:.0} degrees at a bend radius of {:.1} mm, a lumen of radius {:.1} mm ({:.2} of it), rolled {:.0} degrees",
             b.name,
             b.at_mm,
             b.turn_deg,
