@@ -318,9 +318,14 @@ fn envelope(f: &[f64], out: &mut Vec<f64>) {
 }
 
 /// An `f32` ordered for the heap (costs are never NaN).
-#[derive(Debug, Clone, Copy, PartialEq, PartialOrd)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Ord32(f32);
 impl Eq for Ord32 {}
+impl PartialOrd for Ord32 {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
 impl Ord for Ord32 {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
         self.0.total_cmp(&other.0)
@@ -336,9 +341,9 @@ mod tests {
         let f = [1e20, 4.0, 1e20, 1e20, 0.0, 9.0, 1e20, 1.0, 1e20];
         let mut out = Vec::new();
         envelope(&f, &mut out);
-        for q in 0..f.len() {
+        for (q, &o) in out.iter().enumerate() {
             let brute = (0..f.len()).filter(|&p| f[p] < 1e19).map(|p| (q as f64 - p as f64).powi(2) + f[p]).fold(f64::MAX, f64::min);
-            assert_eq!(out[q], brute, "at {q}");
+            assert_eq!(o, brute, "at {q}");
         }
     }
 }
