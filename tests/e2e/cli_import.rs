@@ -310,3 +310,33 @@ fn a_model_file_that_folds_is_refused_by_the_demo_and_the_bench_with_its_cause()
     assert!(clipped.clip_folds().spokes > 0);
     assert!(lumen_import::check(&clipped).is_ok());
 }
+
+/// `lumen generate` writes a surface and a midline the import reads, the same for the same seed,
+/// another for another; a flag out of range is named and nothing is written.
+#[test]
+fn generate_writes_a_seeded_surface_and_midline_for_the_import() {
+    let d = dir("generate");
+    let run = |seed: &str, out: &str, extra: &[&str]| Command::new(LUMEN).args(["generate", "--seed", seed, "--voxel", "2.5", "-o"]).arg(d.join(out)).args(extra).output().unwrap();
+    let a = run("4", "a", &[]);
+    let stdout = String::from_utf8_lossy(&a.stdout);
+    assert!(a.status.success(), "{stdout}{}", String::from_utf8_lossy(&a.stderr));
+    assert!(stdout.contains("sigmoid hairpin") && stdout.contains("next: lumen import"), "{stdout}");
+    let mesh = lumen_import::load_mesh(d.join("a/surface.obj")).unwrap();
+    let line = lumen_import::load_centerline(d.join("a/midline.csv")).unwrap();
+    assert!(mesh.triangles.len() > 10_000 && line.points.len() > 600, "{} triangles, {} points", mesh.triangles.len(), line.points.len());
+    // The midline starts at the anus, the origin, and runs a point per millimetre.
+    assert_eq!(line.points[0], [0.0, 0.0, 0.0]);
+    assert!((line.length() - (line.points.len() - 1) as f64).abs() < 1.0, "{} mm over {} points", line.length(), line.points.len());
+    assert!(run("4", "b", &[]).status.success());
+    for f in ["surface.obj", "midline.csv"] {
+        assert_eq!(std::fs::read(d.join("a").join(f)).unwrap(), std::fs::read(d.join("b").join(f)).unwrap(), "{f} differs for the same seed");
+    }
+    assert!(run("5", "c", &[]).status.success());
+    assert_ne!(std::fs::read(d.join("a/midline.csv")).unwrap(), std::fs::read(d.join("c/midline.csv")).unwrap());
+    for (flag, value, says) in [("--radius", "40,30", "--radius"), ("--canal-radius", "0.5", "--canal-radius"), ("--radius", "30", "--radius")] {
+        let out = run("4", "bad", &[flag, value]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(says), "{flag} {value}: {stderr}");
+        assert!(!d.join("bad").exists(), "{flag} {value} wrote files");
+    }
+}
