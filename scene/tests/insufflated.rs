@@ -2,8 +2,22 @@
 //! claims (bends a third to a half of the lumen's radius, out of plane, a canal half a scope's
 //! radius, lumens 25 to 50 mm), and the import's one gate never lets it through folded.
 
+use lumen_detect::{ContactKind, Detector, Method, Rod, Scene, Tube};
+use lumen_import::ImportReport;
 use lumen_scene::insufflated::{generate, SurfaceColon, SurfaceParams, BEND_RATIO};
 use std::collections::HashMap;
+use std::sync::OnceLock;
+
+/// A generated colon imported at 48 spokes through the gate (built once per seed and shared).
+fn imported(seed: u64) -> &'static (SurfaceColon, Tube, ImportReport) {
+    static CACHE: [OnceLock<(SurfaceColon, Tube, ImportReport)>; 4] = [OnceLock::new(), OnceLock::new(), OnceLock::new(), OnceLock::new()];
+    CACHE[seed as usize].get_or_init(|| {
+        let c = generate(&SurfaceParams::seeded(seed)).unwrap();
+        let params = lumen_import::ImportParams { spokes: 48, ..Default::default() };
+        let (tube, report) = lumen_import::import(&c.mesh, &c.line, &params).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        (c, tube, report)
+    })
+}
 
 fn nearest_vertex(c: &SurfaceColon, p: [f32; 3]) -> f64 {
     c.mesh.vertices.iter().map(|v| (0..3).map(|d| (v[d] as f64 - p[d] as f64).powi(2)).sum::<f64>()).fold(f64::MAX, f64::min).sqrt()
@@ -71,9 +85,7 @@ fn parameters_out_of_range_are_named() {
 #[test]
 fn the_import_retraces_the_midline_and_passes_the_gate() {
     for (seed, p99) in [(1, 0.5), (3, 0.5)] {
-        let c = generate(&SurfaceParams::seeded(seed)).unwrap();
-        let params = lumen_import::ImportParams { spokes: 48, ..Default::default() };
-        let (tube, report) = lumen_import::import(&c.mesh, &c.line, &params).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let (c, tube, report) = imported(seed);
         assert_eq!((report.folds.spokes, tube.folds().spokes), (0, 0), "seed {seed}");
         assert!(report.fidelity.p99 <= p99, "seed {seed}: {report}");
         let r = report.retraced.unwrap_or_else(|| panic!("seed {seed}: not re-traced: {report}"));
@@ -83,4 +95,63 @@ fn the_import_retraces_the_midline_and_passes_the_gate() {
         let d = |a: [f32; 3], b: [f32; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f32>().sqrt();
         assert!(d(first, c.line.points[0]) < 3.0 && d(last, *c.line.points.last().unwrap()) < 3.0, "seed {seed}: ends {first:?} {last:?}");
     }
+}
+
+/// A scope's tip (radius 6.5 mm) driven in 1 mm steps along the inner side of the sigmoid
+/// hairpin (bend radius 13 mm in a lumen of 32), pressed 1.5 mm into the wall: every first
+/// contact comes from the wall that bounds the tip's own part of the lumen (its ring within 12
+/// of the tip's, changing by at most 4 from one step to the next), and its wall point is the
+/// near wall (no further from the tip's centre than the surface's nearest vertex plus 1.5 mm),
+/// never the far limb's. (On the given midline's model the same walk meets a contact 14 rings
+/// from the tip, and 96 rings away, through the far limb, without the clip.)
+#[test]
+fn a_tip_through_a_wide_hairpin_meets_its_own_wall() {
+    let (c, tube, _) = imported(1);
+    let hairpin = c.bends.iter().find(|b| b.name == "sigmoid hairpin").unwrap();
+    let h = c.line.points[hairpin.at_mm.round() as usize];
+    let dist = |a: [f32; 3], b: [f32; 3]| (0..3).map(|k| (a[k] as f64 - b[k] as f64).powi(2)).sum::<f64>().sqrt();
+    let ih = (0..tube.rings()).min_by(|&a, &b| dist(tube.points[a], h).total_cmp(&dist(tube.points[b], h))).unwrap();
+    let p = |i: usize| tube.points[i].map(f64::from);
+    let (a, b, m) = (p(ih - 10), p(ih + 10), p(ih));
+    let inner: Vec<f64> = (0..3).map(|k| a[k] + b[k] - 2.0 * m[k]).collect();
+    let nearest_wall = |q: [f64; 3]| c.mesh.vertices.iter().map(|v| (0..3).map(|k| (v[k] as f64 - q[k]).powi(2)).sum::<f64>()).fold(f64::MAX, f64::min).sqrt();
+    let mut last: Option<u32> = None;
+    let (mut steps, mut contacts) = (0, 0);
+    for i in ih - 50..ih + 50 {
+        // The spoke of ring i that points most to the bend's inner side; the tip on it, 1.5 mm
+        // into the wall, the rod's second point 2 mm behind along the axis.
+        let k = (0..tube.spokes).max_by(|&x, &y| {
+            let d = |k: usize| (0..3).map(|j| tube.spoke(i, k)[j] as f64 * inner[j]).sum::<f64>() / (0..3).map(|j| (tube.spoke(i, k)[j] as f64).powi(2)).sum::<f64>().sqrt();
+            d(x).total_cmp(&d(y))
+        });
+        let k = k.unwrap();
+        let v = tube.spoke(i, k).map(f64::from);
+        let len = (0..3).map(|j| v[j] * v[j]).sum::<f64>().sqrt();
+        let f = ((len - 6.5 + 1.5) / len).max(0.0);
+        let tip = [0, 1, 2].map(|j| (p(i)[j] + f * v[j]) as f32);
+        let t = [0, 1, 2].map(|j| p(i + 1)[j] - p(i - 1)[j]);
+        let tn = (0..3).map(|j| t[j] * t[j]).sum::<f64>().sqrt();
+        let back = [0, 1, 2].map(|j| tip[j] - (2.0 * t[j] / tn) as f32);
+        let rod = Rod::new(vec![back, tip], vec![6.5]).unwrap();
+        let scene = Scene::new().tube("colon", tube.clone()).rod("scope", rod).pair("scope", "colon", ContactKind::Interior).precision(4).method(Method::Signed).nearest(true);
+        let found = Detector::new(&scene.spec().validate().unwrap()).detect(&scene.state()).unwrap().to_vec();
+        steps += 1;
+        for ct in found.iter().filter(|ct| ct.flags & lumen_detect::proto::contact::FLAG_OTHER_WALL == 0) {
+            contacts += 1;
+            assert!(ct.depth.is_finite() && ct.normal.iter().all(|x| x.is_finite()), "step at ring {i}: {ct:?}");
+            let ring = ct.index_b;
+            assert!(ring.abs_diff(i as u32) <= 12, "tip at ring {i}: contact at ring {ring} ({ct:?})");
+            let centre = [0, 1, 2].map(|j| ct.point_a[j] as f64 - 6.5 * ct.normal[j] as f64);
+            let to_wall = dist(centre.map(|x| x as f32), ct.point_b);
+            let near = nearest_wall(centre);
+            assert!(to_wall <= near + 1.5, "tip at ring {i}: its wall point is {to_wall:.2} mm away, the surface {near:.2} mm ({ct:?})");
+            if ct.sample as usize == found.iter().map(|c| c.sample).max().unwrap() as usize {
+                if let Some(l) = last {
+                    assert!(ring.abs_diff(l) <= 4, "tip at ring {i}: contact ring {l} -> {ring} in one 1 mm step");
+                }
+                last = Some(ring);
+            }
+        }
+    }
+    assert!(contacts >= steps, "{contacts} contacts in {steps} steps: the tip should press on the wall at every step");
 }
