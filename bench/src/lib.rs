@@ -75,8 +75,8 @@ pub enum Error {
     /// The real colon was asked for but not loaded.
     #[error("scene: the GCA colon is not loaded")]
     GcaNotLoaded,
-    /// The real colon's tube could not be built.
-    #[error("scene: gca import: {0}")]
+    /// An imported colon's tube (the GCA colon, the insufflated one) could not be built.
+    #[error("scene: import: {0}")]
     GcaImport(#[source] lumen_import::ImportError),
     /// The model scene was asked for but no model loaded.
     #[error("scene: the model is not loaded")]

@@ -34,7 +34,7 @@ impl SceneKind {
     /// Whether the colon is a real one (the GCA colon, or a model imported from a scan): judged
     /// against the real colon's reference, entered to the real colon's depth.
     pub fn real(self) -> bool {
-        matches!(self, SceneKind::Colon(ColonKind::Gca) | SceneKind::Model)
+        matches!(self, SceneKind::Colon(ColonKind::Gca | ColonKind::Insufflated) | SceneKind::Model)
     }
 }
 
@@ -121,7 +121,7 @@ impl SceneData {
 /// gca 1.0.
 pub fn ring_spacing(kind: ColonKind, opts: &Options) -> f32 {
     match kind {
-        ColonKind::Gca => 1.0,
+        ColonKind::Gca | ColonKind::Insufflated => 1.0,
         _ => opts.generated_ring_spacing_mm,
     }
 }
@@ -133,6 +133,11 @@ pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
         Some(p) => {
             let p = ColonParams { length_mm: opts.generated_length_mm, ring_spacing: spacing, spokes, ..p };
             Ok((generate(&p), None))
+        }
+        None if kind == ColonKind::Insufflated => {
+            let c = lumen_scene::insufflated::generate(&lumen_scene::insufflated::SurfaceParams::seeded(opts.seed)).expect("the default parameters are valid");
+            let (tube, rep) = lumen_import::import(&c.mesh, &c.line, &ImportParams { spokes, ring_spacing: spacing, ..ImportParams::default() }).map_err(Error::GcaImport)?;
+            Ok((tube, Some(rep)))
         }
         None => {
             let g = gca.ok_or(Error::GcaNotLoaded)?;

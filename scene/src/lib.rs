@@ -65,6 +65,10 @@ pub enum ColonKind {
     Loop,
     /// The Edinburgh Gut Cell Atlas colon EdinGCA_3D_00090 ([`gca::load`]).
     Gca,
+    /// A generated insufflated colon given as a surface and a midline, of the seed
+    /// ([`insufflated::generate`]): lumens of 25 to 50 mm, bends a third to a half of that, a
+    /// 3.25 mm anal canal; imported through the gate at 48 spokes ([`insufflated::load`]).
+    Insufflated,
 }
 
 /// The narrowings of [`ColonKind::Narrow`]: the anal canal (4.5 mm radius over 30 mm, 30 mm in)
@@ -91,9 +95,9 @@ pub const SIGMOID_LOOP: colon::SigmoidLoop = colon::SigmoidLoop { radius_mm: [50
 
 impl ColonKind {
     /// Every kind, in the order reports list them.
-    pub const ALL: [ColonKind; 6] = [ColonKind::Generated, ColonKind::Narrow, ColonKind::Collapsed, ColonKind::TightBend, ColonKind::Loop, ColonKind::Gca];
+    pub const ALL: [ColonKind; 7] = [ColonKind::Generated, ColonKind::Narrow, ColonKind::Collapsed, ColonKind::TightBend, ColonKind::Loop, ColonKind::Gca, ColonKind::Insufflated];
 
-    /// `generated`, `narrow`, `collapsed`, `tight-bend`, `loop` or `gca`.
+    /// `generated`, `narrow`, `collapsed`, `tight-bend`, `loop`, `gca` or `insufflated`.
     pub fn name(self) -> &'static str {
         match self {
             ColonKind::Generated => "generated",
@@ -102,10 +106,12 @@ impl ColonKind {
             ColonKind::TightBend => "tight-bend",
             ColonKind::Loop => "loop",
             ColonKind::Gca => "gca",
+            ColonKind::Insufflated => "insufflated",
         }
     }
 
-    /// The generator's parameters of a generated kind with `seed` (`None` for the GCA colon).
+    /// The tube generator's parameters of a generated kind with `seed` (`None` for the colons
+    /// that come through the import: the GCA colon and the insufflated one).
     pub fn generated(self, seed: u64) -> Option<ColonParams> {
         let base = ColonParams::seeded(seed);
         Some(match self {
@@ -114,7 +120,7 @@ impl ColonKind {
             ColonKind::Collapsed => ColonParams { narrowings: COLLAPSED.to_vec(), ..base },
             ColonKind::TightBend => ColonParams { tight_bends: TIGHT_BENDS.to_vec(), ..base },
             ColonKind::Loop => ColonParams { sigmoid_loop: Some(SIGMOID_LOOP), ..base },
-            ColonKind::Gca => return None,
+            ColonKind::Gca | ColonKind::Insufflated => return None,
         })
     }
 }
@@ -127,7 +133,7 @@ impl std::fmt::Display for ColonKind {
 
 /// A colon name that is none of [`ColonKind::ALL`]'s.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown colon {0:?}: use generated, narrow, collapsed, tight-bend, loop or gca")]
+#[error("unknown colon {0:?}: use generated, narrow, collapsed, tight-bend, loop, gca or insufflated")]
 pub struct UnknownColon(pub String);
 
 impl std::str::FromStr for ColonKind {

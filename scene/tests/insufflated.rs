@@ -155,3 +155,16 @@ fn a_tip_through_a_wide_hairpin_meets_its_own_wall() {
     }
     assert!(contacts >= steps, "{contacts} contacts in {steps} steps: the tip should press on the wall at every step");
 }
+
+/// The `insufflated` scene is the seed's colon through `lumen generate` and `lumen import
+/// --spokes 48`: the same model, by name.
+#[test]
+fn the_insufflated_scene_is_the_generated_colon_imported() {
+    use lumen_scene::ColonKind;
+    assert_eq!("insufflated".parse::<ColonKind>(), Ok(ColonKind::Insufflated));
+    assert_eq!(ColonKind::Insufflated.generated(1), None);
+    let (tube, report) = lumen_scene::insufflated::load(1).unwrap();
+    let (_, same, same_report) = imported(1);
+    assert_eq!(&tube, same);
+    assert_eq!(report.fidelity.p99, same_report.fidelity.p99);
+}

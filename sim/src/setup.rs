@@ -184,9 +184,9 @@ pub fn model_colon(path: &Path) -> Result<Tube, ModelFileError> {
     }
 }
 
-/// The colon of `kind`: the generated one of `seed` (1.5 m) or one of its hard variants, or the
-/// GCA colon from `data` (its files' folder, or the default place); the error says what is
-/// missing.
+/// The colon of `kind`: the generated one of `seed` (1.5 m) or one of its hard variants, the
+/// insufflated one of `seed` (imported), or the GCA colon from `data` (its files' folder, or
+/// the default place); the error says what is missing or why the import refused it.
 pub fn colon(kind: ColonKind, seed: u64, data: Option<&Path>) -> Result<Tube, GcaError> {
     colon_inflated(kind, seed, data, GCA_INFLATE)
 }
@@ -197,6 +197,7 @@ pub fn colon(kind: ColonKind, seed: u64, data: Option<&Path>) -> Result<Tube, Gc
 pub fn colon_inflated(kind: ColonKind, seed: u64, data: Option<&Path>, inflate: f32) -> Result<Tube, GcaError> {
     match kind.generated(seed) {
         Some(p) => Ok(generate(&ColonParams { length_mm: 1500.0, ..p })),
+        None if kind == ColonKind::Insufflated => Ok(lumen_scene::insufflated::load(seed)?.0),
         None => gca::load(data, inflate),
     }
 }

@@ -30,7 +30,8 @@ pub struct RunArgs {
     pub frames: u64,
     /// The colon: generated, its hard variants narrow (below the scope's diameter in the anal
     /// canal and the sigmoid), collapsed (a collapsed sigmoid segment), loop (a sigmoid that
-    /// winds once around) and tight-bend (bends tighter than the lumen), or gca.
+    /// winds once around) and tight-bend (bends tighter than the lumen), gca, or insufflated (a
+    /// generated surface whose lumen is wider than its bends, imported: `lumen generate`).
     #[arg(long, default_value = "generated")]
     pub scene: ColonKind,
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).

@@ -25,7 +25,8 @@ struct Args {
     /// Frames to run (1 ms each).
     #[arg(long, default_value_t = 3000)]
     frames: u64,
-    /// The colon: generated (seeded) or gca (needs its files, see --data).
+    /// The colon: generated (seeded), one of its variants, gca (needs its files, see --data) or
+    /// insufflated (seeded, imported).
     #[arg(long, default_value = "generated")]
     scene: ColonKind,
     /// Directory of the GCA colon's files (default ../shared/data/colon-gca00090).
@@ -152,7 +153,7 @@ fn main() {
             std::process::exit(2)
         }),
         (None, Some(p)) => lumen_scene::generate(&lumen_scene::ColonParams { length_mm: a.length, ..p }),
-        (None, None) => lumen_scene::gca::load(a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
+        (None, None) => lumen_sim::setup::colon_inflated(a.scene, a.seed, a.data.as_deref(), a.inflate).unwrap_or_else(|e| {
             eprintln!("{e}");
             std::process::exit(2)
         }),
