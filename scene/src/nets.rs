@@ -6,8 +6,8 @@
 //! from the negative side (inside) to the positive one. The level set of a function is a
 //! surface that never passes through itself, whatever the shape it bounds: that is why the
 //! generated surfaces are meshed this way rather than swept. Written here rather than taken from
-//! a crate: the one well-kept crate (`fast-surface-nets`) wants fixed-size chunks and its own
-//! array shapes, and this is 100 lines over a plain grid.
+//! a crate: `fast-surface-nets` works on padded chunks of its own `ndshape` layout and would be
+//! one more dependency for about 100 lines over a plain grid.
 
 use lumen_import::Mesh;
 
