@@ -11,8 +11,11 @@
 //! fan about a line in the crease, outside the lumen.
 //!
 //! **The path.** On a grid of spacing `h` over the midline's box widened by the lumen's reach:
-//! the voxels the surface passes through are walls; the lumen is the voxels reached from the
-//! midline's own voxels without crossing a wall; `d` is each lumen voxel's Euclidean distance
+//! the voxels the surface passes through are walls, and so are those further than the reach
+//! from the midline (a surface open to the outside, in pieces or with holes, as segmentations
+//! come, then bounds a lumen all the same: what leaks through a gap is a thin shell around the
+//! colon, where the wall is near and the path does not go); the lumen is the voxels reached
+//! from the midline's own voxels without crossing a wall; `d` is each lumen voxel's Euclidean distance
 //! to the nearest wall voxel (exact on the grid, Felzenszwalb and Huttenlocher's separable
 //! transform); the axis is the cheapest 26-connected path from the midline's first voxel to
 //! its last, each step costing its length times `(h / d)^4`, so that the path keeps to the
@@ -21,8 +24,8 @@
 //! a lumen's radius, and a narrow canal keeps its own line), never more than a third of the way
 //! to the nearer end (the ends stay put), and resampled every millimetre. The grid spacing is
 //! the caller's (a tenth of the median radius, 1 to 2 mm) or coarser, up to [`MAX_VOXELS`].
-//! Where anything fails (a lumen that leaks out of the box through a hole in the surface, no
-//! lumen voxel at an end, no path, a path longer than twice the midline or shorter than half),
+//! Where anything fails (no lumen voxel at an end, no path, a path longer than twice the
+//! midline or shorter than half),
 //! there is no re-traced axis and the import keeps the given midline ([`crate::build_tube`] says when it uses the re-traced one).
 
 use crate::geom::{arc_lengths, smooth_scalar, V3d};
@@ -65,7 +68,7 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
         lo = lo.inf(p);
         hi = hi.sup(p);
     }
-    let margin = reach + 2.0 * voxel;
+    let margin = reach + 4.0 * voxel;
     lo -= V3d::repeat(margin);
     hi += V3d::repeat(margin);
     // At most MAX_VOXELS: a coarser grid for a larger box.
@@ -93,6 +96,24 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
             }
         }
     }
+    // A surface open to the outside (pieces, holes) must not let the lumen run off: voxels
+    // further than `reach` from the midline are walls too.
+    let coords = |i: usize| [i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1])];
+    let mut on_line = vec![false; n];
+    for w in midline.windows(2) {
+        let steps = ((w[1] - w[0]).norm() / (0.5 * voxel)).ceil().max(1.0) as usize;
+        for j in 0..=steps {
+            if let Some(g) = cell(w[0] + (w[1] - w[0]) * (j as f64 / steps as f64)) {
+                on_line[index(g)] = true;
+            }
+        }
+    }
+    let from_line = distance_to(&on_line, dims, voxel);
+    drop(on_line);
+    for (w, &d) in wall.iter_mut().zip(&from_line) {
+        *w |= d as f64 > reach;
+    }
+    drop(from_line);
     // The lumen: reached from the midline's voxels through non-wall voxels (6-connected).
     let mut lumen = vec![false; n];
     let mut stack: Vec<usize> = midline.iter().filter_map(|&p| cell(p)).map(index).filter(|&i| !wall[i]).collect();
@@ -100,7 +121,6 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
         lumen[i] = true;
     }
     let strides = [1isize, dims[0] as isize, (dims[0] * dims[1]) as isize];
-    let coords = |i: usize| [i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1])];
     while let Some(i) = stack.pop() {
         let g = coords(i);
         for (d, &s) in strides.iter().enumerate() {
@@ -116,10 +136,6 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
                 }
             }
         }
-    }
-    // A lumen reaching the box's faces leaked through a hole in the surface: no axis.
-    if (0..n).any(|i| lumen[i] && coords(i).iter().zip(dims).any(|(&g, d)| g == 0 || g + 1 == d)) {
-        return None;
     }
     let dist = distance_to(&wall, dims, voxel);
 

@@ -168,3 +168,25 @@ fn the_insufflated_scene_is_the_generated_colon_imported() {
     assert_eq!(&tube, same);
     assert_eq!(report.fidelity.p99, same_report.fidelity.p99);
 }
+
+/// A surface open to the outside (six ring-shaped gaps of 3 mm cut out, seven open pieces, as
+/// CT segmentations come): the lumen the import traces through is bounded by its reach from the
+/// midline, so the re-traced axis still runs inside and the model passes the gate.
+#[test]
+fn an_open_surface_is_retraced_too() {
+    let c = generate(&SurfaceParams::seeded(1)).unwrap();
+    let pts = &c.line.points;
+    let arc_of = |q: [f32; 3]| (0..pts.len()).min_by(|&a, &b| (0..3).map(|k| (pts[a][k] - q[k]).powi(2)).sum::<f32>().total_cmp(&(0..3).map(|k| (pts[b][k] - q[k]).powi(2)).sum::<f32>())).unwrap();
+    let mut mesh = c.mesh.clone();
+    mesh.triangles.retain(|t| {
+        let centre = [0, 1, 2].map(|k| t.iter().map(|&v| mesh.vertices[v as usize][k]).sum::<f32>() / 3.0);
+        let s = arc_of(centre);
+        !(1..=6).any(|k| (100 * k..100 * k + 3).contains(&s))
+    });
+    assert!(mesh.triangles.len() + 1000 < c.mesh.triangles.len());
+    let params = lumen_import::ImportParams { spokes: 48, ..Default::default() };
+    let (tube, report) = lumen_import::import(&mesh, &c.line, &params).unwrap_or_else(|e| panic!("{e}"));
+    assert!(report.retraced.is_some_and(|r| r.used && r.other_p99_mm > 5.0), "{report}");
+    assert!(report.missed > 100, "the gaps: {report}");
+    assert!(report.fidelity.p99 <= 1.5 && tube.folds().spokes == 0, "{report}");
+}
