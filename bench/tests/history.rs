@@ -68,6 +68,43 @@ fn placements_anywhere_equal_a_fresh_session() {
     }
 }
 
+/// Rings 9.78 mm apart (the published method's spacing): 300 unrelated placements in one
+/// session, their samples on ring planes, each answered as a fresh session answers it. (A
+/// sample exactly on a ring's plane lies in both segments the ring divides; before the lower
+/// one always answered, the walk from last frame and a fresh search picked different ones.)
+#[test]
+fn placements_on_sparse_rings_equal_a_fresh_session() {
+    let colon = generate(&lumen_scene::ColonParams { ring_spacing: 9.78, ..ColonKind::Generated.generated(7).unwrap() });
+    for nearest in [false, true] {
+        let mut mix = Mix(11);
+        let first = scene(&colon, sparse_placement(&colon, &mut mix), nearest);
+        let mut d = Detector::new(&first.spec().validate().unwrap());
+        let mut contacts = 0;
+        for f in 0..300 {
+            let s = scene(&colon, sparse_placement(&colon, &mut mix), nearest);
+            let warm = d.detect(&s.state()).unwrap().to_vec();
+            assert_eq!(warm, fresh(&s), "nearest {nearest}: placement {f}");
+            contacts += warm.len();
+        }
+        assert!(contacts > 3000, "nearest {nearest}: {contacts} contacts");
+    }
+}
+
+/// A 25-point scope along consecutive rings from a random one, off the midline along one spoke
+/// by a random fraction (up to 1.1).
+fn sparse_placement(colon: &Tube, mix: &mut Mix) -> Rod {
+    let i0 = (mix.next() * (colon.rings() - 25) as f32) as usize;
+    let k = (mix.next() * colon.spokes as f32) as usize % colon.spokes;
+    let f = 1.1 * mix.next();
+    let points = (0..25)
+        .map(|j| {
+            let (p, v) = (colon.points[i0 + j], colon.spoke(i0 + j, k));
+            [p[0] + f * v[0], p[1] + f * v[1], p[2] + f * v[2]]
+        })
+        .collect();
+    Rod::new(points, vec![6.5]).unwrap()
+}
+
 #[test]
 fn placements_in_a_lumen_narrower_than_the_scope_match_the_dense_oracle_by_default() {
     // The narrow variant (4.5 and 5 mm radius where a 6.5 mm scope passes, easing back over

@@ -499,6 +499,15 @@ impl TubeCache {
                 d0 = d1;
                 d1 = self.plane(t, i + 1, p);
             } else {
+                // On ring `i`'s plane exactly (a sample placed on a ring), segments `i - 1` and
+                // `i` both hold it: the lower one answers, whichever way the walk came, so a
+                // session's history cannot pick between them.
+                if d0 == 0.0 && i > 0 {
+                    let before = self.plane(t, i - 1, p);
+                    if before >= 0.0 {
+                        return Axial::In { seg: i - 1, u: between(before, d0) };
+                    }
+                }
                 return Axial::In { seg: i, u: between(d0, d1) };
             }
         }
@@ -506,9 +515,9 @@ impl TubeCache {
     }
 
     /// Calls `f(self, seg, u)` for every segment within `reach` of `around` whose ring planes
-    /// bracket `p`, in order along the tube: exactly the segments where [`TubeCache::axial`]
-    /// with no step finds `p`, at the same `u`, reading each ring's plane once (a walk per
-    /// segment would read two or three).
+    /// bracket `p`, in order along the tube: the segments where [`TubeCache::axial`] with no
+    /// step finds `p` (on a ring's plane, both segments it divides), at the same `u`, reading
+    /// each ring's plane once (a walk per segment would read two or three).
     pub fn brackets(&mut self, t: &TubeView, p: &V3, around: usize, reach: usize, mut f: impl FnMut(&mut Self, usize, f32)) {
         let lo = around.saturating_sub(reach);
         let hi = (around + reach).min(t.segments() - 1);

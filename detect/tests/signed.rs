@@ -23,10 +23,11 @@ fn straight_tube_depth_normal_and_weights_are_exact() {
         assert!((c.weights_b.iter().sum::<f32>() - 1.0).abs() < 1e-6);
         assert_eq!(c.flags & FLAG_OUTSIDE, 0);
     }
-    // Ordered by sample; ring index follows x.
+    // Ordered by sample; ring index follows x. The first sample lies on ring 1's plane
+    // exactly: the lower of the two segments it divides answers, at its end.
     assert!(cs.windows(2).all(|w| w[0].sample < w[1].sample));
-    assert_eq!(cs[0].index_b, 1);
-    assert!((cs[0].param_b - 0.0).abs() < 1e-5);
+    assert_eq!(cs[0].index_b, 0);
+    assert!((cs[0].param_b - 1.0).abs() < 1e-5);
 }
 
 #[test]
