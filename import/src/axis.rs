@@ -10,23 +10,25 @@
 //! limb's middle and turns around the crease at about a lumen's radius from it, so its planes
 //! fan about a line in the crease, outside the lumen.
 //!
-//! **The path.** On a grid of spacing `h` over the midline's box widened by the lumen's reach:
-//! the voxels the surface passes through are walls, and so are those further than the reach
-//! from the midline (a surface open to the outside, in pieces or with holes, as segmentations
-//! come, then bounds a lumen all the same: what leaks through a gap is a thin shell around the
-//! colon, where the wall is near and the path does not go); the lumen is the voxels reached
-//! from the midline's own voxels without crossing a wall; `d` is each lumen voxel's Euclidean distance
-//! to the nearest wall voxel (exact on the grid, Felzenszwalb and Huttenlocher's separable
-//! transform); the axis is the cheapest 26-connected path from the midline's first voxel to
-//! its last, each step costing its length times `(h / d)^4`, so that the path keeps to the
-//! ridge of `d`; it is then smoothed along its arc with a Gaussian whose sigma is [`SMOOTHING`]
-//! times the wall's distance there (so a junction of two limbs' ridges becomes a turn of about
-//! a lumen's radius, and a narrow canal keeps its own line), never more than a third of the way
-//! to the nearer end (the ends stay put), and resampled every millimetre. The grid spacing is
-//! the caller's (a tenth of the median radius, 1 to 2 mm) or coarser, up to [`MAX_VOXELS`].
-//! Where anything fails (no lumen voxel at an end, no path, a path longer than twice the
-//! midline or shorter than half),
-//! there is no re-traced axis and the import keeps the given midline ([`crate::build_tube`] says when it uses the re-traced one).
+//! **The path.** On a grid of spacing `h` over the midline's box widened by the lumen's reach: the
+//! voxels the surface passes through are walls, and so are those further than the reach from the
+//! midline (a surface open to the outside, in pieces or with holes, as segmentations come, then
+//! bounds a lumen all the same: what leaks through a gap is a thin shell around the colon, where
+//! the wall is near and the path does not go); the lumen is the voxels reached from the midline's
+//! own voxels without crossing a wall, the connected piece that holds most of them (a midline
+//! poking out of a closed surface seeds a piece of the outside too); `d` is each lumen voxel's
+//! Euclidean distance to the nearest wall voxel (exact on the grid, Felzenszwalb and Huttenlocher's
+//! separable transform); the axis is the cheapest 26-connected path between the lumen voxels
+//! nearest the first and the last midline points that have one within three voxels (searching a
+//! tenth of the midline from either end), each step costing its length times `(h / d)^4`, so that
+//! the path keeps to the ridge of `d`; it is then smoothed along its arc with a Gaussian whose
+//! sigma is [`SMOOTHING`] times the wall's distance there (so a junction of two limbs' ridges
+//! becomes a turn of about a lumen's radius, and a narrow canal keeps its own line), never more
+//! than a third of the way to the nearer end (the ends stay put), and resampled every millimetre.
+//! The grid spacing is the caller's (a tenth of the median radius, 1 to 2 mm) or coarser, up to
+//! [`MAX_VOXELS`]. Where anything fails (no lumen voxel at an end, no path, a path longer than
+//! twice the midline or shorter than half), there is no re-traced axis and the import keeps the
+//! given midline ([`crate::build_tube`] says when it uses the re-traced one).
 
 use crate::geom::{arc_lengths, smooth_scalar, V3d};
 use crate::Mesh;
@@ -114,32 +116,48 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
         *w |= d as f64 > reach;
     }
     drop(from_line);
-    // The lumen: reached from the midline's voxels through non-wall voxels (6-connected).
-    let mut lumen = vec![false; n];
-    let mut stack: Vec<usize> = midline.iter().filter_map(|&p| cell(p)).map(index).filter(|&i| !wall[i]).collect();
-    for &i in &stack {
-        lumen[i] = true;
-    }
+    // The lumen: the voxels reached without crossing a wall (6-connected) from the midline's
+    // own, in the component that holds most of them (a midline that pokes out of a closed
+    // surface seeds a piece of the outside too).
+    let mut label = vec![0u32; n];
+    let seeds: Vec<usize> = midline.iter().filter_map(|&p| cell(p)).map(index).filter(|&i| !wall[i]).collect();
     let strides = [1isize, dims[0] as isize, (dims[0] * dims[1]) as isize];
-    while let Some(i) = stack.pop() {
-        let g = coords(i);
-        for (d, &s) in strides.iter().enumerate() {
-            for dir in [-1isize, 1] {
-                let k = g[d] as isize + dir;
-                if k < 0 || k >= dims[d] as isize {
-                    continue;
-                }
-                let j = (i as isize + dir * s) as usize;
-                if !wall[j] && !lumen[j] {
-                    lumen[j] = true;
-                    stack.push(j);
+    let mut next_label = 0u32;
+    let mut stack = Vec::new();
+    for &seed in &seeds {
+        if label[seed] != 0 {
+            continue;
+        }
+        next_label += 1;
+        label[seed] = next_label;
+        stack.push(seed);
+        while let Some(i) = stack.pop() {
+            let g = coords(i);
+            for (d, &s) in strides.iter().enumerate() {
+                for dir in [-1isize, 1] {
+                    let k = g[d] as isize + dir;
+                    if k < 0 || k >= dims[d] as isize {
+                        continue;
+                    }
+                    let j = (i as isize + dir * s) as usize;
+                    if !wall[j] && label[j] == 0 {
+                        label[j] = next_label;
+                        stack.push(j);
+                    }
                 }
             }
         }
     }
+    let mut count = vec![0usize; next_label as usize + 1];
+    for &i in &seeds {
+        count[label[i] as usize] += 1;
+    }
+    let main = (1..count.len()).max_by_key(|&l| count[l])? as u32;
+    let lumen: Vec<bool> = label.iter().map(|&l| l == main).collect();
+    drop(label);
     let dist = distance_to(&wall, dims, voxel);
 
-    // Ends: the lumen voxels nearest the midline's ends.
+    // Ends: the lumen voxel nearest a midline point, within three voxels.
     let end = |p: V3d| -> Option<usize> {
         let g = cell(p)?;
         let r = 3isize;
@@ -161,7 +179,10 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
         }
         best.map(|b| b.1)
     };
-    let (from, to) = (end(midline[0])?, end(*midline.last()?)?);
+    // From each end, the first midline point (within a tenth of them) with the lumen at hand.
+    let tenth = (midline.len() / 10).max(1);
+    let from = midline[..tenth].iter().find_map(|&p| end(p))?;
+    let to = midline[midline.len() - tenth..].iter().rev().find_map(|&p| end(p))?;
 
     // Cheapest path along the ridge of the distance.
     let mut cost = vec![f32::INFINITY; n];

@@ -190,3 +190,22 @@ fn an_open_surface_is_retraced_too() {
     assert!(report.missed > 100, "the gaps: {report}");
     assert!(report.fidelity.p99 <= 1.5 && tube.folds().spokes == 0, "{report}");
 }
+
+/// A midline that starts 12 mm outside the surface (before the anus, as CT midlines often
+/// do): the traced lumen is the piece of the grid that holds most of the midline, the axis
+/// starts at the first midline point inside it, and the model passes the gate.
+#[test]
+fn a_midline_that_pokes_out_of_the_surface_is_retraced_from_inside() {
+    let c = generate(&SurfaceParams::seeded(3)).unwrap();
+    let mut line = c.line.clone();
+    line.points.splice(0..0, (1..=12).rev().map(|k| [0.0, 0.0, -(k as f32)]));
+    line.s = None;
+    let params = lumen_import::ImportParams { spokes: 48, ..Default::default() };
+    let (tube, report) = lumen_import::import(&c.mesh, &line, &params).unwrap_or_else(|e| panic!("{e}"));
+    assert!(report.retraced.is_some_and(|r| r.used), "{report}");
+    assert!(report.fidelity.p99 <= 0.6 && tube.folds().spokes == 0, "{report}");
+    // The first ring is inside the cap of the anus (the discs reach 5 mm before it), within a
+    // few millimetres of where the surface's own midline starts.
+    let first = tube.points[0];
+    assert!(first[2] > -5.0 && first[2] < 3.0 && first[0].hypot(first[1]) < 2.0, "first ring at {first:?}");
+}
