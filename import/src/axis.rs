@@ -30,7 +30,7 @@
 //! twice the midline or shorter than half), there is no re-traced axis and the import keeps the
 //! given midline ([`crate::build_tube`] says when it uses the re-traced one).
 
-use crate::geom::{arc_lengths, smooth_scalar, V3d};
+use crate::geom::{arc_lengths, smooth_along_each, smooth_scalar, V3d};
 use crate::Mesh;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -240,13 +240,13 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
     }
     path.reverse();
     let pos: Vec<V3d> = path.iter().map(|&i| lo + V3d::new(coords(i)[0] as f64, coords(i)[1] as f64, coords(i)[2] as f64) * voxel).collect();
-    // Smoothed with a Gaussian as wide as `factor` times the wall's local distance, never wider
+    // Smoothed with a Gaussian as wide as SMOOTHING times the wall's local distance, never wider
     // than a third of the way to the nearer end (the ends stay put).
     let arc = arc_lengths(&pos);
     let local = smooth_scalar(&path.iter().map(|&i| dist[i] as f64).collect::<Vec<_>>(), &arc, 5.0);
     let total = *arc.last()?;
     let sigmas: Vec<f64> = (0..pos.len()).map(|i| (SMOOTHING * local[i]).min(arc[i] / 3.0).min((total - arc[i]) / 3.0)).collect();
-    let smooth = smooth_varying(&pos, &arc, &sigmas);
+    let smooth = smooth_along_each(&pos, &arc, &sigmas);
     let mut sorted = sigmas.clone();
     sorted.sort_by(f64::total_cmp);
     let sigma = sorted[sorted.len() / 2];
@@ -259,29 +259,6 @@ pub fn retrace(mesh: &Mesh, midline: &[V3d], voxel: f64, reach: f64) -> Option<A
     let count = length.floor() as usize + 1;
     let points = (0..count).map(|k| crate::geom::at_arc(&smooth, &arc, k as f64)).collect();
     Some(Axis { points, voxel_mm: voxel, smoothing_mm: sigma })
-}
-
-/// Gaussian smoothing along the arc with its own sigma at every point (`sigmas[i] <= 0`: the
-/// point as it is).
-fn smooth_varying(values: &[V3d], arc: &[f64], sigmas: &[f64]) -> Vec<V3d> {
-    (0..values.len())
-        .map(|i| {
-            let sigma = sigmas[i];
-            if sigma <= 1e-9 {
-                return values[i];
-            }
-            let lo = arc.partition_point(|&a| a < arc[i] - 3.0 * sigma);
-            let hi = arc.partition_point(|&a| a <= arc[i] + 3.0 * sigma);
-            let (mut acc, mut wsum) = (V3d::zeros(), 0.0);
-            for j in lo..hi {
-                let d = (arc[j] - arc[i]) / sigma;
-                let w = (-0.5 * d * d).exp();
-                acc += values[j] * w;
-                wsum += w;
-            }
-            acc / wsum
-        })
-        .collect()
 }
 
 /// Euclidean distance (mm) from every voxel to the nearest `true` one of `sites`, exact on the

@@ -66,26 +66,30 @@ pub fn smooth_along(values: &[V3d], arc: &[f64], sigma: f64) -> Vec<V3d> {
     if sigma <= 0.0 || values.len() < 3 {
         return values.to_vec();
     }
-    let n = values.len();
-    let (mut lo, mut hi) = (0usize, 0usize);
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        while arc[i] - arc[lo] > 3.0 * sigma {
-            lo += 1;
-        }
-        while hi + 1 < n && arc[hi + 1] - arc[i] <= 3.0 * sigma {
-            hi += 1;
-        }
-        let (mut acc, mut wsum) = (V3d::zeros(), 0.0);
-        for j in lo..=hi {
-            let d = (arc[j] - arc[i]) / sigma;
-            let w = (-0.5 * d * d).exp();
-            acc += values[j] * w;
-            wsum += w;
-        }
-        out.push(acc / wsum);
-    }
-    out
+    smooth_along_each(values, arc, &vec![sigma; values.len()])
+}
+
+/// [`smooth_along`] with its own `sigma` at every point (`sigmas[i] <= 0`: point `i` as it
+/// is); `arc` must not decrease.
+pub fn smooth_along_each(values: &[V3d], arc: &[f64], sigmas: &[f64]) -> Vec<V3d> {
+    (0..values.len())
+        .map(|i| {
+            let sigma = sigmas[i];
+            if sigma <= 0.0 {
+                return values[i];
+            }
+            let lo = arc.partition_point(|&a| arc[i] - a > 3.0 * sigma);
+            let hi = arc.partition_point(|&a| a - arc[i] <= 3.0 * sigma);
+            let (mut acc, mut wsum) = (V3d::zeros(), 0.0);
+            for j in lo..hi {
+                let d = (arc[j] - arc[i]) / sigma;
+                let w = (-0.5 * d * d).exp();
+                acc += values[j] * w;
+                wsum += w;
+            }
+            acc / wsum
+        })
+        .collect()
 }
 
 /// Same for scalars.
