@@ -135,8 +135,7 @@ pub fn colon(kind: ColonKind, spokes: usize, ring_factor: f32, opts: &Options, g
             Ok((generate(&p), None))
         }
         None if kind == ColonKind::Insufflated => {
-            let c = lumen_scene::insufflated::generate(&lumen_scene::insufflated::SurfaceParams::seeded(opts.seed)).expect("the default parameters are valid");
-            let (tube, rep) = lumen_import::import(&c.mesh, &c.line, &ImportParams { spokes, ring_spacing: spacing, ..ImportParams::default() }).map_err(Error::GcaImport)?;
+            let (tube, rep) = lumen_scene::insufflated::load_with(opts.seed, &ImportParams { spokes, ring_spacing: spacing, ..ImportParams::default() }).map_err(Error::GcaImport)?;
             Ok((tube, Some(rep)))
         }
         None => {

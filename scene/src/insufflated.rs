@@ -449,6 +449,12 @@ pub const IMPORT_SPOKES: usize = 48;
 /// ([`lumen_import::import`]) at [`IMPORT_SPOKES`] spokes every 1 mm, the same model as
 /// `lumen generate --seed S` followed by `lumen import ... --spokes 48`.
 pub fn load(seed: u64) -> Result<(Tube, ImportReport), ImportError> {
+    load_with(seed, &ImportParams { spokes: IMPORT_SPOKES, ..ImportParams::default() })
+}
+
+/// The default colon of `seed` imported through the gate with `params` (the benchmarks' other
+/// spokes and ring spacings).
+pub fn load_with(seed: u64, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
     let c = generate(&SurfaceParams::seeded(seed)).expect("the default parameters are valid");
-    lumen_import::import(&c.mesh, &c.line, &ImportParams { spokes: IMPORT_SPOKES, ..ImportParams::default() })
+    lumen_import::import(&c.mesh, &c.line, params)
 }
