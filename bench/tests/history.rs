@@ -24,13 +24,18 @@ impl Mix {
 /// the midline along one spoke by a random fraction (up to 1.1: some placements put it through
 /// the wall).
 fn placement(colon: &Tube, mix: &mut Mix) -> Rod {
+    placement_every(colon, mix, 4)
+}
+
+/// [`placement`] with its points `stride` rings apart.
+fn placement_every(colon: &Tube, mix: &mut Mix, stride: usize) -> Rod {
     let rings = colon.rings();
-    let i0 = (mix.next() * (rings - 100) as f32) as usize;
+    let i0 = (mix.next() * (rings - 25 * stride) as f32) as usize;
     let k = (mix.next() * colon.spokes as f32) as usize % colon.spokes;
     let f = 1.1 * mix.next();
     let points = (0..25)
         .map(|j| {
-            let i = i0 + 4 * j;
+            let i = i0 + stride * j;
             let (p, v) = (colon.points[i], colon.spoke(i, k));
             [p[0] + f * v[0], p[1] + f * v[1], p[2] + f * v[2]]
         })
@@ -77,32 +82,17 @@ fn placements_on_sparse_rings_equal_a_fresh_session() {
     let colon = generate(&lumen_scene::ColonParams { ring_spacing: 9.78, ..ColonKind::Generated.generated(7).unwrap() });
     for nearest in [false, true] {
         let mut mix = Mix(11);
-        let first = scene(&colon, sparse_placement(&colon, &mut mix), nearest);
+        let first = scene(&colon, placement_every(&colon, &mut mix, 1), nearest);
         let mut d = Detector::new(&first.spec().validate().unwrap());
         let mut contacts = 0;
         for f in 0..300 {
-            let s = scene(&colon, sparse_placement(&colon, &mut mix), nearest);
+            let s = scene(&colon, placement_every(&colon, &mut mix, 1), nearest);
             let warm = d.detect(&s.state()).unwrap().to_vec();
             assert_eq!(warm, fresh(&s), "nearest {nearest}: placement {f}");
             contacts += warm.len();
         }
         assert!(contacts > 3000, "nearest {nearest}: {contacts} contacts");
     }
-}
-
-/// A 25-point scope along consecutive rings from a random one, off the midline along one spoke
-/// by a random fraction (up to 1.1).
-fn sparse_placement(colon: &Tube, mix: &mut Mix) -> Rod {
-    let i0 = (mix.next() * (colon.rings() - 25) as f32) as usize;
-    let k = (mix.next() * colon.spokes as f32) as usize % colon.spokes;
-    let f = 1.1 * mix.next();
-    let points = (0..25)
-        .map(|j| {
-            let (p, v) = (colon.points[i0 + j], colon.spoke(i0 + j, k));
-            [p[0] + f * v[0], p[1] + f * v[1], p[2] + f * v[2]]
-        })
-        .collect();
-    Rod::new(points, vec![6.5]).unwrap()
 }
 
 #[test]

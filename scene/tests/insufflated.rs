@@ -19,8 +19,9 @@ fn imported(seed: u64) -> &'static (SurfaceColon, Tube, ImportReport) {
     })
 }
 
-fn nearest_vertex(c: &SurfaceColon, p: [f32; 3]) -> f64 {
-    c.mesh.vertices.iter().map(|v| (0..3).map(|d| (v[d] as f64 - p[d] as f64).powi(2)).sum::<f64>()).fold(f64::MAX, f64::min).sqrt()
+/// Distance from `p` to the surface's nearest vertex (mm): the wall within half a voxel.
+fn nearest_vertex(c: &SurfaceColon, p: [f64; 3]) -> f64 {
+    c.mesh.vertices.iter().map(|v| (0..3).map(|d| (v[d] as f64 - p[d]).powi(2)).sum::<f64>()).fold(f64::MAX, f64::min).sqrt()
 }
 
 #[test]
@@ -54,12 +55,12 @@ fn the_surface_is_closed_seeded_and_of_the_hard_class() {
         assert!(col.bends.iter().filter(|b| b.roll_deg.abs() >= 45.0).count() >= 3, "out of plane: {:?}", col.bends.iter().map(|b| b.roll_deg).collect::<Vec<_>>());
         // The canal: the wall within a voxel of 3.25 mm from the midline, 5 to 25 mm in.
         for p in &col.line.points[5..25] {
-            let d = nearest_vertex(col, *p);
+            let d = nearest_vertex(col, p.map(f64::from));
             assert!((d - 3.25).abs() < 1.5, "canal wall {d:.2} mm from the midline");
         }
         // Insufflated: the median distance from the midline to the wall beyond the rectum is
         // 25 to 50 mm (ellipses and folds make it less than the major radius).
-        let mut far: Vec<f64> = col.line.points[150..].iter().step_by(20).map(|p| nearest_vertex(col, *p)).collect();
+        let mut far: Vec<f64> = col.line.points[150..].iter().step_by(20).map(|p| nearest_vertex(col, p.map(f64::from))).collect();
         far.sort_by(f64::total_cmp);
         let med = far[far.len() / 2];
         assert!((18.0..=50.0).contains(&med), "median midline-to-wall {med:.1} mm");
@@ -114,7 +115,6 @@ fn a_tip_through_a_wide_hairpin_meets_its_own_wall() {
     let p = |i: usize| tube.points[i].map(f64::from);
     let (a, b, m) = (p(ih - 10), p(ih + 10), p(ih));
     let inner: Vec<f64> = (0..3).map(|k| a[k] + b[k] - 2.0 * m[k]).collect();
-    let nearest_wall = |q: [f64; 3]| c.mesh.vertices.iter().map(|v| (0..3).map(|k| (v[k] as f64 - q[k]).powi(2)).sum::<f64>()).fold(f64::MAX, f64::min).sqrt();
     let mut last: Option<u32> = None;
     let (mut steps, mut contacts) = (0, 0);
     for i in ih - 50..ih + 50 {
@@ -143,7 +143,7 @@ fn a_tip_through_a_wide_hairpin_meets_its_own_wall() {
             assert!(ring.abs_diff(i as u32) <= 12, "tip at ring {i}: contact at ring {ring} ({ct:?})");
             let centre = [0, 1, 2].map(|j| ct.point_a[j] as f64 - 6.5 * ct.normal[j] as f64);
             let to_wall = dist(centre.map(|x| x as f32), ct.point_b);
-            let near = nearest_wall(centre);
+            let near = nearest_vertex(c, centre);
             assert!(to_wall <= near + 1.5, "tip at ring {i}: its wall point is {to_wall:.2} mm away, the surface {near:.2} mm ({ct:?})");
             if ct.sample as usize == found.iter().map(|c| c.sample).max().unwrap() as usize {
                 if let Some(l) = last {
