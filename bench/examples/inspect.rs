@@ -5,8 +5,10 @@
 //! ```sh
 //! cargo run --release -p lumen-bench --example inspect -- gca 32 4 0 360
 //! cargo run --release -p lumen-bench --example inspect -- generated 32 4 24 311 --method thesis
+//! cargo run --release -p lumen-bench --example inspect -- ins3.lumen 48 4 24 105
 //! ```
-//! Arguments: scene (`generated` | `gca`), spokes, precision x, frame, samples...;
+//! Arguments: scene (`generated` | `gca` | a model file written by `lumen import`, at its own
+//! spokes), spokes, precision x, frame, samples...;
 //! `--method default|thesis|parry` (default `default`), `--steps N` (reference, default 32),
 //! `--refine N` (the default method's axial refinements).
 
@@ -30,6 +32,7 @@ fn main() {
             other => panic!("unknown {other}"),
         }
     }
+    let model = args[0].ends_with(".lumen").then(|| scenes::Model::read(std::path::Path::new(&args[0])).expect("the model"));
     let kind = match args[0].as_str() {
         "gca" => ColonKind::Gca,
         _ => ColonKind::Generated,
@@ -38,7 +41,10 @@ fn main() {
     let (spokes, x, frame, samples) = (n[0], n[1], n[2], &n[3..]);
     let opts = Options { frames: frame + 1, warmup: 0, eval_every: 1, eval_escapes_every: 0, refine, ..Options::full() };
     let gca = (kind == ColonKind::Gca).then(|| gca::Source::read(None).expect("the GCA colon"));
-    let scene = scenes::build(kind, spokes, 1.0, &opts, gca.as_ref(), true).expect("scene");
+    let scene = match &model {
+        Some(m) => scenes::build_model(m, &opts, true).expect("scene"),
+        None => scenes::build(kind, spokes, 1.0, &opts, gca.as_ref(), true).expect("scene"),
+    };
     let mut rec = Vec::new();
     let mut buf = Vec::new();
     pass(&scene, x as u32, method, &opts, &mut buf, Some(&mut rec)).expect("pass");
@@ -57,7 +63,7 @@ fn main() {
     let t = Truth::new(&ef.colon, &ef.scope, ef.inserted, &ef.arc_mm, scene.spec.alpha, TruthParams { steps, window_mm: 60.0, threads: opts.threads }, &extra);
     println!(
         "{} B{spokes} x{x} frame {frame} ({} rings; control points inside {}, escaped {:?}); method {}; reference steps {steps}, bound {:.4} mm",
-        kind.name(),
+        if model.is_some() { args[0].as_str() } else { kind.name() },
         scene.rings,
         ef.inserted,
         ef.escaped,

@@ -38,7 +38,8 @@
 //! no section the sample's centre lies in). So a second descent starts from the nearest seed on
 //! a wall facing the point that is nearer than the first descent's end. Between the rod's ends
 //! the seeds are wall points on the rings within the rod's radius along the tube (the foot's
-//! strip and three either side, at the middle of each; [`Probe::ring_descent`]): a ring's wall
+//! strip and three either side, at the middle of each, and their spokes' tips, where a fold's
+//! crest running across the strips comes nearest; [`Probe::ring_descent`]): a ring's wall
 //! points are its control point and spokes, a few operations each. At the rod's two ends, which
 //! also seek other walls, they are the foot's strip and its neighbours in the point's own
 //! section and in the sections half the rod's radius and the whole radius ahead and behind
@@ -370,8 +371,9 @@ impl Probe<'_> {
 
     /// Between the rod's ends, the second descent: from the nearest of the wall points on the
     /// rings within `reach` along the tube (every ring, or every so many where more than
-    /// [`SCAN_RINGS`] lie within it either side), on the foot's strip at its `l` and the strips
-    /// either side at their middles, that is nearer than `end` and faces the point. The nearer
+    /// [`RING_SEED_RINGS`] lie within it either side), on the foot's strip at its `l`, the strips
+    /// either side at their middles and the spokes' tips, that is nearer than `end` and faces
+    /// the point. The nearer
     /// of the two ends becomes `end`; returns the other. A ring's wall points are its control
     /// point and spokes themselves, a few operations each, where a seed in a section between
     /// rings costs a walk to that section and the midline's cubic there; and a ring every
@@ -392,12 +394,15 @@ impl Probe<'_> {
         }
         let ls: [f32; RING_STRIPS] = std::array::from_fn(|j| if ks[j] == start.k { start.l } else { 0.5 });
         // The nearest few nearer than `end`, nearest first: the nearest may face away.
-        let mut best = [(end.d2, usize::MAX, 0usize); RING_TRIES];
+        let mut best = [(end.d2, usize::MAX, 0usize, 0.0f32); RING_TRIES];
         // Each strip's weights, one per float of its spokes: the loop reads a ring's spokes as
         // one flat run of floats and weighs them float by float, then sums each point's three
         // squares in order (the same sums as a point at a time, in fewer instructions and less
         // time: docs/decisions/detect.md).
         let (ms, lf) = strip_weights(&ls);
+        // And the spokes' own tips: a fold's crest running across the strips has its nearest
+        // point near a tip as often as near a strip's middle.
+        let (ms0, lf0) = strip_weights(&[0.0; RING_STRIPS]);
         for i in (lo..=hi).step_by(stride) {
             let q = p - t.point(i);
             let qs: [f32; STRIP_FLOATS] = std::array::from_fn(|f| q[f % 3]);
@@ -407,25 +412,33 @@ impl Probe<'_> {
                 Some(run) => run,
                 None => std::array::from_fn(|j| s[ks[j]]),
             };
-            let d2 = ring_seed_d2(&qs, &w, &ms, &lf);
-            // Most rings hold no seed nearer than those kept: one test of all seven first.
-            if d2.iter().any(|&d| d < best[RING_TRIES - 1].0) {
-                for (j, &d2) in d2.iter().enumerate() {
-                    if d2 < best[RING_TRIES - 1].0 {
-                        let mut at = RING_TRIES - 1;
-                        while at > 0 && d2 < best[at - 1].0 {
-                            best[at] = best[at - 1];
-                            at -= 1;
+            for (tips, d2) in [(false, ring_seed_d2(&qs, &w, &ms, &lf)), (true, ring_seed_d2(&qs, &w, &ms0, &lf0))] {
+                // Most rings hold no seed nearer than those kept: one test of all seven first.
+                if d2.iter().any(|&d| d < best[RING_TRIES - 1].0) {
+                    for (j, &d2) in d2.iter().enumerate() {
+                        if d2 < best[RING_TRIES - 1].0 {
+                            let mut at = RING_TRIES - 1;
+                            while at > 0 && d2 < best[at - 1].0 {
+                                best[at] = best[at - 1];
+                                at -= 1;
+                            }
+                            best[at] = (d2, i, j, if tips { 0.0 } else { ls[j] });
                         }
-                        best[at] = (d2, i, j);
                     }
                 }
             }
         }
-        for &(_, i, j) in best.iter().take_while(|c| c.1 != usize::MAX) {
-            let (k, l) = (ks[j], ls[j]);
-            let at = if i > last { Patch { seg: last, u: 1.0, k, l } } else { Patch { seg: i, u: 0.0, k, l } };
-            let here = self.local(at);
+        for &(_, i, j, l) in best.iter().take_while(|c| c.1 != usize::MAX) {
+            // A tip is the corner of two strips: the seed is on whichever of them faces the point
+            // (where a fold's crest runs across the strips, one side of the tip is the crest's
+            // back, the other its front).
+            let (seg, u) = if i > last { (last, 1.0) } else { (i, 0.0) };
+            let mut at = Patch { seg, u, k: ks[j], l };
+            let mut here = self.local(at);
+            if l == 0.0 && !here.faces(p, self.cache.ring(t, seg).o, self.side) {
+                at = Patch { seg, u, k: (ks[j] + b - 1) % b, l: 1.0 };
+                here = self.local(at);
+            }
             if here.faces(p, self.cache.ring(t, at.seg).o, self.side) && (p - here.s).norm_squared() < end.d2 {
                 let other = descend(self, at, here, None, OTHER_ITERATIONS);
                 return Some(if other.d2 < end.d2 { std::mem::replace(end, other) } else { other });

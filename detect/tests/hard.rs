@@ -574,3 +574,49 @@ fn hard_only_declared_pairs_are_computed() {
     assert!(d.detect(&scene.state()).unwrap().is_empty(), "the rod is far outside, but interior was not declared");
     assert_eq!(d.stats().walked + d.stats().reacquired, 0, "and no tube work was done");
 }
+
+#[test]
+fn hard_fold_crest_across_the_strips_is_never_missed() {
+    // A haustral fold whose crest runs obliquely across the strips, as where ring planes are
+    // tilted against a fold: spoke k is 53 long up to ring 15 + |k - 24| and 39 from there on
+    // (48 spokes, rings 1 apart). Every spoke's tip is a point of the wall, so no sample's
+    // nearest wall is farther than its nearest tip: a sample within the rod's radius of a tip
+    // overlaps the wall at least that much, and must be reported at least that deep. Rods run
+    // along the tube at several angles and distances from the axis, past the crest.
+    let (rings, spokes) = (60, 48);
+    let crest = |k: usize| 15 + k.abs_diff(24);
+    let colon = tube(
+        rings,
+        spokes,
+        |i| [i as f32, 0.0, 0.0],
+        |i, k| {
+            let a = k as f32 * TAU / spokes as f32;
+            let r = if i < crest(k) { 53.0 } else { 39.0 };
+            [0.0, r * a.cos(), r * a.sin()]
+        },
+    );
+    let tips: Vec<V> = (0..rings).flat_map(|i| (0..spokes).map(move |k| (i, k))).map(|(i, k)| add(colon.points[i], colon.spoke(i, k))).collect();
+    let (r, x) = (6.5, 4u32);
+    let mut deep = 0;
+    for step in 0..24 {
+        let a = (16.0 + step as f32 * 0.75) * TAU / spokes as f32;
+        for rho in [31.0f32, 33.5, 36.0] {
+            let (y, z) = (rho * a.cos(), rho * a.sin());
+            let scope = line([1.0, y, z], [57.0, y, z], 57, r);
+            let cs = run(&interior(colon.clone(), scope, x, Method::Signed));
+            assert_finite(&cs);
+            for s in 0..56 * x as usize + 1 {
+                let p = [1.0 + s as f32 / x as f32, y, z];
+                let near = tips.iter().map(|&t| norm(sub(t, p))).fold(f32::INFINITY, f32::min);
+                let overlap = r - near;
+                if overlap < 0.05 {
+                    continue;
+                }
+                deep += 1;
+                let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+                assert!(got >= overlap - 1e-3, "angle {:.2} spokes, {rho} from the axis, sample {s} at {p:?}: a tip {near:.4} away (overlap {overlap:.4}), reported {got}", a * spokes as f32 / TAU);
+            }
+        }
+    }
+    assert!(deep > 100, "only {deep} samples overlap a tip");
+}
