@@ -218,7 +218,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
     let start = Patch { seg: from.seg, k: from.k, u: from.u.clamp(0.0, 1.0), l: from.l.clamp(0.0, 1.0) };
     let s0 = probe.local(start);
     // The ends of descents that lost to `end`: candidates for other walls.
-    let mut spare: [Option<End>; 2 + SCAN_SEEDS] = [None; 2 + SCAN_SEEDS];
+    let mut spare: [Option<End>; 4 + SCAN_SEEDS] = [None; 4 + SCAN_SEEDS];
     let mut end = probe.first_descent(&from, start, s0, &mut spare[0]);
     let within = if from.outside { 0.0 } else { within };
     // Seeds facing the point (see the module's "Seeds"), nearer than the first descent ended
@@ -229,7 +229,14 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         let keep2 = if within > 0.0 { end.d2.max((within + reach) * (within + reach)) } else { end.d2 };
         n_own = probe.gather_seeds(&mut seeds, &from, start, reach, keep2);
         spare[1] = probe.second_descent(&mut seeds, &mut end);
-        probe.pocket_descents(&from, start.k, reach + within, &mut end, &mut spare[2..]);
+        // The ring seeds and the patches find the nearest wall where the seeds above miss it;
+        // the walls they end on otherwise are kept out of the other walls (on a polygonal
+        // section every strip holds a minimum, and those would crowd out the walls the pockets
+        // find), all but the wall they displace.
+        let d2 = end.d2;
+        spare[2] = probe.ring_descent(&from, start, reach, &mut end).filter(|_| end.d2 < d2);
+        probe.pocket_descents(&from, start.k, reach + within, &mut end, &mut spare[4..]);
+        spare[3] = probe.box_descents(&from, reach, &mut end);
     } else if reach > 0.0 {
         spare[1] = probe.ring_descent(&from, start, reach, &mut end);
     }
@@ -457,6 +464,87 @@ impl Probe<'_> {
         Some(if other.d2 < end.d2 { std::mem::replace(end, other) } else { other })
     }
 
+    /// For the rod's ends: a descent from the middle of each wall patch (ring segment by strip,
+    /// every strip, the segments within `reach` along the tube) whose box, grown for the
+    /// spline's swing past its rings, lies nearer the point than `end`, nearest box first, at
+    /// most [`BOX_TRIES`]. Where the lumen is wide its patches are too (12 mm strips on a
+    /// lumen of 60 mm radius at 32 spokes): the nearest wall point can lie in a patch's middle,
+    /// millimetres nearer than any of its corners and farther from any seed than the first
+    /// descent's end, in a basin of its own. The nearer end becomes `end`; returns the end it
+    /// displaced last, if any.
+    fn box_descents(&mut self, from: &Gap, reach: f32, end: &mut End) -> Option<End> {
+        let (t, p) = (self.t, self.p);
+        let (b, last) = (t.spokes, t.segments() - 1);
+        let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
+        let full = ((reach / spacing).ceil() as usize).min(BOX_RINGS);
+        let lo = from.seg.saturating_sub(full);
+        let hi = (from.seg + full).min(last);
+        // Ring `j` clamped to the tube: the spline's end segments repeat their end rings.
+        let tip = |j: isize, k: usize| {
+            let j = j.clamp(0, last as isize + 1) as usize;
+            t.point(j) + t.spoke(j, k)
+        };
+        let mut best = [(f32::INFINITY, 0usize, 0usize, f32::INFINITY); BOX_TRIES];
+        for k in 0..b {
+            let k1 = next(k, b);
+            // The two spokes' tips on rings i - 1 to i + 2, rolled along the window.
+            let i0 = lo as isize;
+            let mut a: [V3; 4] = std::array::from_fn(|j| tip(i0 - 1 + j as isize, k));
+            let mut e: [V3; 4] = std::array::from_fn(|j| tip(i0 - 1 + j as isize, k1));
+            for i in lo..=hi {
+                if i > lo {
+                    a = [a[1], a[2], a[3], tip(i as isize + 2, k)];
+                    e = [e[1], e[2], e[3], tip(i as isize + 2, k1)];
+                }
+                // How far the spline may swing past the chord between the rings: a quarter of
+                // the largest step of the two spokes over this and the neighbouring segments.
+                let step = (0..3).map(|j| (a[j + 1] - a[j]).norm_squared().max((e[j + 1] - e[j]).norm_squared())).fold(0.0f32, f32::max);
+                let grow = 0.25 * step.sqrt();
+                let mut d2 = 0.0;
+                for d in 0..3 {
+                    let mn = a[1][d].min(a[2][d]).min(e[1][d]).min(e[2][d]) - grow;
+                    let mx = a[1][d].max(a[2][d]).max(e[1][d]).max(e[2][d]) + grow;
+                    let out = (mn - p[d]).max(p[d] - mx).max(0.0);
+                    d2 += out * out;
+                }
+                if d2 >= end.d2 {
+                    continue;
+                }
+                // The ball about the corners' mean that holds them (grown the same): a second
+                // bound, and the order among patches whose boxes hold the point.
+                let c = (a[1] + a[2] + e[1] + e[2]) * 0.25;
+                let rad = [a[1], a[2], e[1], e[2]].iter().map(|q| (q - c).norm_squared()).fold(0.0f32, f32::max).sqrt() + grow;
+                let to_c = (p - c).norm();
+                let lb = (to_c - rad).max(0.0);
+                let key = (d2.max(lb * lb), to_c);
+                if key.0 < end.d2 && key < (best[BOX_TRIES - 1].0, best[BOX_TRIES - 1].3) {
+                    let mut at = BOX_TRIES - 1;
+                    while at > 0 && key < (best[at - 1].0, best[at - 1].3) {
+                        best[at] = best[at - 1];
+                        at -= 1;
+                    }
+                    best[at] = (key.0, i, k, to_c);
+                }
+            }
+        }
+        let mut displaced = None;
+        for &(d2, i, k, _) in best.iter().take_while(|c| c.0.is_finite()) {
+            if d2 >= end.d2 {
+                break;
+            }
+            let at = Patch { seg: i, u: 0.5, k, l: 0.5 };
+            let here = self.local(at);
+            if !here.faces(p, self.cache.ring(t, i).o, self.side) {
+                continue;
+            }
+            let e = descend(self, at, here, None, OTHER_ITERATIONS);
+            if e.d2 < end.d2 {
+                displaced = Some(std::mem::replace(end, e));
+            }
+        }
+        displaced
+    }
+
     /// For the rod's ends: a descent from each pocket of the wall within `dist` around the point
     /// (see [`scan_pockets`]); the nearest end becomes `end`, the others fill `spare`.
     fn pocket_descents(&mut self, from: &Gap, k0: usize, dist: f32, end: &mut End, spare: &mut [Option<End>]) {
@@ -564,6 +652,12 @@ pub const FREE_CROSSINGS: usize = 16;
 /// a seed's section).
 pub const MAX_CROSSINGS: usize = 512;
 
+/// Patches [`Probe::box_descents`] descends from at most.
+const BOX_TRIES: usize = 6;
+
+/// Rings either side of the point's own whose patches [`Probe::box_descents`] reads at most.
+const BOX_RINGS: usize = 16;
+
 /// Pockets [`scan_pockets`] returns at most.
 pub const SCAN_SEEDS: usize = 4;
 
@@ -613,8 +707,14 @@ fn scan_pockets(pr: &mut Probe, from: &Gap, k0: usize, dist: f32) -> [Option<(Pa
         }
         let Some(slot) = (0..SCAN_SEEDS).max_by(|&x, &y| kept[x].total_cmp(&kept[y])).filter(|&x| d2 < kept[x]) else { continue };
         let i = lo + j * stride;
-        let at = if i > last { Patch { seg: last, u: 1.0, k: ring[j].1, l: 0.0 } } else { Patch { seg: i, u: 0.0, k: ring[j].1, l: 0.0 } };
-        let here = local(t, cache, at);
+        let (seg, u) = if i > last { (last, 1.0) } else { (i, 0.0) };
+        // The corner is on two strips: whichever faces the point (see `ring_descent`).
+        let mut at = Patch { seg, u, k: ring[j].1, l: 0.0 };
+        let mut here = local(t, cache, at);
+        if !here.faces(p, cache.ring(t, seg).o, side) {
+            at = Patch { seg, u, k: (ring[j].1 + b - 1) % b, l: 1.0 };
+            here = local(t, cache, at);
+        }
         if here.faces(p, cache.ring(t, at.seg).o, side) {
             out[slot] = Some((at, here));
             kept[slot] = d2;

@@ -619,4 +619,29 @@ fn hard_fold_crest_across_the_strips_is_never_missed() {
         }
     }
     assert!(deep > 100, "only {deep} samples overlap a tip");
+    // The same for the rod's end, which reads other walls around it: rods that stop in front of
+    // the crest.
+    let mut ends = 0;
+    for step in 0..32 {
+        let a = (14.0 + step as f32 * 0.625) * TAU / spokes as f32;
+        for rho in [30.0f32, 33.5, 36.0] {
+            for stop in [10.0f32, 11.5, 13.0] {
+                let (y, z) = (rho * a.cos(), rho * a.sin());
+                let scope = line([stop - 12.0, y, z], [stop, y, z], 13, r);
+                let cs = run(&interior(colon.clone(), scope, x, Method::Signed));
+                assert_finite(&cs);
+                let s = 12 * x as usize;
+                let p = [stop, y, z];
+                let near = tips.iter().map(|&t| norm(sub(t, p))).fold(f32::INFINITY, f32::min);
+                let overlap = r - near;
+                if overlap < 0.05 {
+                    continue;
+                }
+                ends += 1;
+                let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+                assert!(got >= overlap - 1e-3, "rod's end at {p:?} (angle {:.2} spokes): a tip {near:.4} away (overlap {overlap:.4}), reported {got}", a * spokes as f32 / TAU);
+            }
+        }
+    }
+    assert!(ends > 20, "only {ends} rod ends overlap a tip");
 }
