@@ -49,7 +49,10 @@ pub struct SimParams {
     /// Speed limit of scope points and wall nodes, mm/s (default 1000; 0: none). A
     /// colonoscope's motions stay far below it; it keeps a frame's motion within about the
     /// detection margin, so conflicting contacts (where the tube model is ambiguous) cannot
-    /// pump energy into the scope. Points it slows are counted in
+    /// pump energy into the scope, and a wall no contact reported at the frame's start cannot
+    /// be reached within the frame. It bounds a scope point's displacement in each substep too
+    /// (`max * dt / substeps`): a point the constraints throw further is moved back along its
+    /// path. Points it slows are counted in
     /// [`crate::FrameReport::speed_limited`].
     pub max_speed_mm_s: f64,
     /// Time over which the scope's initial shape is released, s (default 0.15): its rest

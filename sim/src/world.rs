@@ -20,7 +20,7 @@
 //!    first ring's plane are held on the insertion axis); bend and stretch; the wall's springs,
 //!    membrane and range; the contacts (twice); velocities, then the separating velocity of
 //!    every violated contact removed (inelastic contacts), and speeds above
-//!    [`SimParams::max_speed_mm_s`] cut to it;
+//!    [`SimParams::max_speed_mm_s`] cut to it (a scope point's substep displacement too);
 //! 4. the NaN check; the state is written (rod points, the wall tips around active nodes;
 //!    the whole colon when the source's buffer does not keep the last frame) and the contacts
 //!    are detected once on it. Those contacts give this frame's figures (penetration, escapes: measured by the
@@ -570,7 +570,7 @@ impl<S: ContactSource> World<S> {
             self.wall.update_velocity(h);
             self.contacts.stop_separation(&mut self.rod, &mut self.wall);
             if p.max_speed_mm_s > 0.0 {
-                limited += self.rod.limit_speed(p.max_speed_mm_s);
+                limited += self.rod.limit_speed(p.max_speed_mm_s, h);
                 limited += self.wall.limit_speed(p.max_speed_mm_s);
             }
         }
