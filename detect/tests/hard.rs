@@ -597,25 +597,26 @@ fn hard_fold_crest_across_the_strips_is_never_missed() {
     );
     let tips: Vec<V> = (0..rings).flat_map(|i| (0..spokes).map(move |k| (i, k))).map(|(i, k)| add(colon.points[i], colon.spoke(i, k))).collect();
     let (r, x) = (6.5, 4u32);
+    // Checks sample `s` at `p` against the nearest tip; whether it overlapped one.
+    let check = |cs: &[lumen_detect::Contact], s: usize, p: V, what: &str| {
+        let near = tips.iter().map(|&t| norm(sub(t, p))).fold(f32::INFINITY, f32::min);
+        let overlap = r - near;
+        if overlap < 0.05 {
+            return false;
+        }
+        let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+        assert!(got >= overlap - 1e-3, "{what}, sample {s} at {p:?}: a tip {near:.4} away (overlap {overlap:.4}), reported {got}");
+        true
+    };
     let mut deep = 0;
     for step in 0..24 {
         let a = (16.0 + step as f32 * 0.75) * TAU / spokes as f32;
         for rho in [31.0f32, 33.5, 36.0] {
             let (y, z) = (rho * a.cos(), rho * a.sin());
-            let scope = line([1.0, y, z], [57.0, y, z], 57, r);
-            let cs = run(&interior(colon.clone(), scope, x, Method::Signed));
+            let cs = run(&interior(colon.clone(), line([1.0, y, z], [57.0, y, z], 57, r), x, Method::Signed));
             assert_finite(&cs);
-            for s in 0..56 * x as usize + 1 {
-                let p = [1.0 + s as f32 / x as f32, y, z];
-                let near = tips.iter().map(|&t| norm(sub(t, p))).fold(f32::INFINITY, f32::min);
-                let overlap = r - near;
-                if overlap < 0.05 {
-                    continue;
-                }
-                deep += 1;
-                let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
-                assert!(got >= overlap - 1e-3, "angle {:.2} spokes, {rho} from the axis, sample {s} at {p:?}: a tip {near:.4} away (overlap {overlap:.4}), reported {got}", a * spokes as f32 / TAU);
-            }
+            let what = format!("angle {:.2} spokes, {rho} from the axis", a * spokes as f32 / TAU);
+            deep += (0..56 * x as usize + 1).filter(|&s| check(&cs, s, [1.0 + s as f32 / x as f32, y, z], &what)).count();
         }
     }
     assert!(deep > 100, "only {deep} samples overlap a tip");
@@ -627,19 +628,9 @@ fn hard_fold_crest_across_the_strips_is_never_missed() {
         for rho in [30.0f32, 33.5, 36.0] {
             for stop in [10.0f32, 11.5, 13.0] {
                 let (y, z) = (rho * a.cos(), rho * a.sin());
-                let scope = line([stop - 12.0, y, z], [stop, y, z], 13, r);
-                let cs = run(&interior(colon.clone(), scope, x, Method::Signed));
+                let cs = run(&interior(colon.clone(), line([stop - 12.0, y, z], [stop, y, z], 13, r), x, Method::Signed));
                 assert_finite(&cs);
-                let s = 12 * x as usize;
-                let p = [stop, y, z];
-                let near = tips.iter().map(|&t| norm(sub(t, p))).fold(f32::INFINITY, f32::min);
-                let overlap = r - near;
-                if overlap < 0.05 {
-                    continue;
-                }
-                ends += 1;
-                let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
-                assert!(got >= overlap - 1e-3, "rod's end at {p:?} (angle {:.2} spokes): a tip {near:.4} away (overlap {overlap:.4}), reported {got}", a * spokes as f32 / TAU);
+                ends += check(&cs, 12 * x as usize, [stop, y, z], &format!("the rod's end, angle {:.2} spokes", a * spokes as f32 / TAU)) as usize;
             }
         }
     }
