@@ -423,14 +423,7 @@ impl Probe<'_> {
                 // Most rings hold no seed nearer than those kept: one test of all seven first.
                 if d2.iter().any(|&d| d < best[RING_TRIES - 1].0) {
                     for (j, &d2) in d2.iter().enumerate() {
-                        if d2 < best[RING_TRIES - 1].0 {
-                            let mut at = RING_TRIES - 1;
-                            while at > 0 && d2 < best[at - 1].0 {
-                                best[at] = best[at - 1];
-                                at -= 1;
-                            }
-                            best[at] = (d2, i, j, if tips { 0.0 } else { ls[j] });
-                        }
+                        keep_nearest(&mut best, (d2, i, j, if tips { 0.0 } else { ls[j] }), |c| c.0);
                     }
                 }
             }
@@ -440,12 +433,12 @@ impl Probe<'_> {
             // (where a fold's crest runs across the strips, one side of the tip is the crest's
             // back, the other its front).
             let (seg, u) = if i > last { (last, 1.0) } else { (i, 0.0) };
-            let mut at = Patch { seg, u, k: ks[j], l };
-            let mut here = self.local(at);
-            if l == 0.0 && !here.faces(p, self.cache.ring(t, seg).o, self.side) {
-                at = Patch { seg, u, k: (ks[j] + b - 1) % b, l: 1.0 };
-                here = self.local(at);
-            }
+            let (at, here) = if l == 0.0 {
+                facing_corner(t, self.cache, p, self.side, seg, u, ks[j])
+            } else {
+                let at = Patch { seg, u, k: ks[j], l };
+                (at, self.local(at))
+            };
             if here.faces(p, self.cache.ring(t, at.seg).o, self.side) && (p - here.s).norm_squared() < end.d2 {
                 let other = descend(self, at, here, None, OTHER_ITERATIONS);
                 return Some(if other.d2 < end.d2 { std::mem::replace(end, other) } else { other });
@@ -516,14 +509,9 @@ impl Probe<'_> {
                 let rad = [a[1], a[2], e[1], e[2]].iter().map(|q| (q - c).norm_squared()).fold(0.0f32, f32::max).sqrt() + grow;
                 let to_c = (p - c).norm();
                 let lb = (to_c - rad).max(0.0);
-                let key = (d2.max(lb * lb), to_c);
-                if key.0 < end.d2 && key < (best[BOX_TRIES - 1].0, best[BOX_TRIES - 1].3) {
-                    let mut at = BOX_TRIES - 1;
-                    while at > 0 && key < (best[at - 1].0, best[at - 1].3) {
-                        best[at] = best[at - 1];
-                        at -= 1;
-                    }
-                    best[at] = (key.0, i, k, to_c);
+                let bound = d2.max(lb * lb);
+                if bound < end.d2 {
+                    keep_nearest(&mut best, (bound, i, k, to_c), |c| (c.0, c.3));
                 }
             }
         }
@@ -708,19 +696,44 @@ fn scan_pockets(pr: &mut Probe, from: &Gap, k0: usize, dist: f32) -> [Option<(Pa
         let Some(slot) = (0..SCAN_SEEDS).max_by(|&x, &y| kept[x].total_cmp(&kept[y])).filter(|&x| d2 < kept[x]) else { continue };
         let i = lo + j * stride;
         let (seg, u) = if i > last { (last, 1.0) } else { (i, 0.0) };
-        // The corner is on two strips: whichever faces the point (see `ring_descent`).
-        let mut at = Patch { seg, u, k: ring[j].1, l: 0.0 };
-        let mut here = local(t, cache, at);
-        if !here.faces(p, cache.ring(t, seg).o, side) {
-            at = Patch { seg, u, k: (ring[j].1 + b - 1) % b, l: 1.0 };
-            here = local(t, cache, at);
-        }
+        let (at, here) = facing_corner(t, cache, p, side, seg, u, ring[j].1);
         if here.faces(p, cache.ring(t, at.seg).o, side) {
             out[slot] = Some((at, here));
             kept[slot] = d2;
         }
     }
     out
+}
+
+/// Spoke `k`'s tip at `u` of segment `seg` (a ring), as a point of whichever of the two strips
+/// it bounds faces `p` from `side`: strip `k` at `l = 0`, or else strip `k - 1` at `l = 1`.
+/// Where a fold's crest runs across the strips one of them is the crest's back, and a descent
+/// from there ends on the crest, not on the front the point faces.
+fn facing_corner(t: &TubeView, cache: &mut TubeCache, p: &V3, side: f32, seg: usize, u: f32, k: usize) -> (Patch, Local) {
+    let at = Patch { seg, u, k, l: 0.0 };
+    let here = local(t, cache, at);
+    if here.faces(p, cache.ring(t, seg).o, side) {
+        return (at, here);
+    }
+    let at = Patch { seg, u, k: prev(k, t.spokes), l: 1.0 };
+    (at, local(t, cache, at))
+}
+
+/// Inserts `item` into `best`, kept in ascending `key` order, where it is below the last: the
+/// last falls out, and an equal key goes after those already kept.
+#[inline]
+fn keep_nearest<T: Copy, K: PartialOrd>(best: &mut [T], item: T, key: impl Fn(&T) -> K) {
+    let Some(last) = best.len().checked_sub(1) else { return };
+    let k = key(&item);
+    if k.partial_cmp(&key(&best[last])) != Some(std::cmp::Ordering::Less) {
+        return;
+    }
+    let mut at = last;
+    while at > 0 && k < key(&best[at - 1]) {
+        best[at] = best[at - 1];
+        at -= 1;
+    }
+    best[at] = item;
 }
 
 /// Where the second descent of [`nearest`] may start, in units of its `reach` along the tube.
