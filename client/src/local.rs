@@ -335,6 +335,8 @@ pub(crate) struct LocalObserver {
     node: Rc<Node<Svc>>,
     pub(crate) info: SessionInfo,
     prefer_frame: bool,
+    /// Frames in the order sent (up to the service's buffer behind) instead of the newest.
+    pub(crate) every_frame: bool,
 }
 
 impl LocalObserver {
@@ -351,7 +353,7 @@ impl LocalObserver {
         let replies = contacts.subscriber_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedSubscribers) { full() } else { Error::iox("subscribing to contacts", e) })?;
         let frame_listener = frame_event.listener_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedListeners) { full() } else { Error::iox("listening for frames", e) })?;
         let contacts_listener = contacts_event.listener_builder().create().map_err(|e| if matches!(e, ExceedsMaxSupportedListeners) { full() } else { Error::iox("listening for contacts", e) })?;
-        Ok(Self { frame_sample: None, contacts_sample: None, contacts, frames, replies, frame_listener, contacts_listener, node: node.clone(), info, prefer_frame: true })
+        Ok(Self { frame_sample: None, contacts_sample: None, contacts, frames, replies, frame_listener, contacts_listener, node: node.clone(), info, prefer_frame: true, every_frame: false })
     }
 
     /// The next frame or reply: the newest frame, and replies in order.
@@ -361,24 +363,37 @@ impl LocalObserver {
             // Consume the wake-ups first: a sample sent after the look below brings a new one.
             self.frame_listener.try_wait(|_| {}).map_err(|e| Error::iox("consuming frame events", e))?;
             self.contacts_listener.try_wait(|_| {}).map_err(|e| Error::iox("consuming contacts events", e))?;
-            // Drain the frame queue to its newest sample (releasing the one held since last time).
+            // Frames and replies take turns while both wait; a frame is taken from the queue
+            // only when it is returned.
+            let reply_first = !self.prefer_frame;
+            self.prefer_frame = true;
+            if reply_first {
+                if let Some(r) = self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                    let r = self.contacts_sample.insert(r);
+                    return Ok(crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() }));
+                }
+            }
+            // Drain the frame queue to its newest sample (releasing the one held since last time),
+            // or take its oldest when every frame is wanted.
             self.frame_sample = None;
             let mut newest = None;
             while let Some(s) = self.frames.receive().map_err(|e| Error::iox("receiving a frame", e))? {
                 newest = Some(s); // the previous one is released here, after the receive
+                if self.every_frame {
+                    break;
+                }
             }
-            let reply = if newest.is_none() || !self.prefer_frame { self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? } else { None };
-            if let Some(r) = reply {
-                self.prefer_frame = true;
-                let r = self.contacts_sample.insert(r);
-                return Ok(crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() }));
+            if newest.is_none() {
+                if let Some(r) = self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? {
+                    let r = self.contacts_sample.insert(r);
+                    return Ok(crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() }));
+                }
             }
             if let Some(f) = newest {
                 self.prefer_frame = false;
                 let f = self.frame_sample.insert(f);
                 return Ok(crate::Observed::Frame { header: f.user_header(), state: f.payload() });
             }
-            self.prefer_frame = true;
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 return Err(Error::Timeout(timeout));

@@ -9,7 +9,8 @@ use std::time::Duration;
 /// Something an [`Observer`] saw.
 #[derive(Debug)]
 pub enum Observed<'a> {
-    /// The newest frame the client sent (older ones not yet seen are skipped).
+    /// The newest frame the client sent (older ones not yet seen are skipped), or the next one
+    /// in order after [`Observer::every_frame`].
     Frame { header: &'a FrameHeader, state: &'a [f32] },
     /// A reply of the daemon.
     Contacts(ContactsView<'a>),
@@ -39,6 +40,17 @@ impl Observer {
         match &self.inner {
             Inner::Local(o) => &o.info,
             Inner::Zenoh(o) => &o.info,
+        }
+    }
+
+    /// Asks for every frame, in the order sent, rather than the newest (a recorder). Over
+    /// iceoryx2 the session keeps [`lumen_transport::shm::FRAME_BUFFER`] frames for each
+    /// observer, so one that falls up to that many frames behind loses none; past it the oldest
+    /// are dropped (frame numbers tell). Over zenoh an observer's ask is always answered with
+    /// the newest frame, so this changes nothing there.
+    pub fn every_frame(&mut self) {
+        if let Inner::Local(o) = &mut self.inner {
+            o.every_frame = true;
         }
     }
 

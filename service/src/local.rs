@@ -14,7 +14,7 @@ use lumen_proto::session::{ControlReply, Transport};
 use lumen_proto::wire::{ContactsHeader, FrameHeader};
 use lumen_proto::Contact;
 use lumen_transport::names::CONTROL;
-use lumen_transport::shm::{config, create_channel, node, service_name, ChannelQos, ContactsService, EventService, FrameService, Svc, EVENT_PEER_DIED, EVENT_SENT};
+use lumen_transport::shm::{config, create_channel, node, service_name, ChannelQos, ContactsService, EventService, FrameService, Svc, DAEMON_FRAME_BUFFER, EVENT_PEER_DIED, EVENT_SENT};
 use lumen_transport::TransportError;
 use std::sync::mpsc;
 use std::sync::Arc;
@@ -181,7 +181,7 @@ impl Channels {
         let (frame_qos, contacts_qos) = (ChannelQos::frames(observers), ChannelQos::contacts(observers));
         let (frames, frame_events) = create_channel::<f32, FrameHeader>(node, &info.frame, "frame", frame_qos)?;
         let (contacts, contact_events) = create_channel::<Contact, ContactsHeader>(node, &info.contacts, "contacts", contacts_qos)?;
-        let subscriber = frames.subscriber_builder().buffer_size(frame_qos.buffer).create().map_err(|x| iox("subscribing to frames", x))?;
+        let subscriber = frames.subscriber_builder().buffer_size(DAEMON_FRAME_BUFFER).create().map_err(|x| iox("subscribing to frames", x))?;
         let listener = frame_events.listener_builder().create().map_err(|x| iox("listening for frames", x))?;
         let publisher = contacts
             .publisher_builder()

@@ -190,6 +190,55 @@ fn two_sessions_and_an_observer() {
     assert!(matches!(obs.next(WAIT), Err(Error::SessionEnded(_)) | Ok(_)));
 }
 
+/// What an observer of every frame sees after its session ran ahead of it.
+fn drained(obs: &mut lumen_client::Observer) -> (Vec<(u64, Vec<f32>)>, Vec<u64>) {
+    let (mut frames, mut replies) = (Vec::new(), Vec::new());
+    loop {
+        match obs.next(Duration::from_millis(300)) {
+            Ok(Observed::Frame { header, state }) => frames.push((header.frame, state.to_vec())),
+            Ok(Observed::Contacts(r)) => replies.push(r.frame()),
+            Err(Error::Timeout(_)) => return (frames, replies),
+            Err(e) => panic!("observing: {e}"),
+        }
+    }
+}
+
+#[test]
+fn an_observer_of_every_frame_keeps_eight_behind_and_the_newest_observer_skips_to_the_last() {
+    let prefix = unique_prefix("every");
+    let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
+    let scene = scene();
+    let client = client(&prefix);
+    let mut a = client.open_session(&scene.spec).unwrap();
+    let watcher = self::client(&prefix);
+    let mut every = watcher.observe(a.id()).unwrap();
+    every.every_frame();
+    let mut newest = watcher.observe(a.id()).unwrap();
+    let mut run = |frames: std::ops::Range<u64>| {
+        for k in frames {
+            a.submit_state(&scene.state(k)).unwrap();
+            assert_eq!(a.contacts(WAIT).unwrap().frame(), k);
+        }
+    };
+    // Eight frames while neither observer reads: every one is kept, in order, with its reply.
+    run(0..8);
+    let (frames, replies) = drained(&mut every);
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..8).collect::<Vec<_>>());
+    for (k, state) in &frames {
+        assert_eq!(state, &scene.state(*k), "frame {k}");
+    }
+    assert_eq!(replies, (0..8).collect::<Vec<_>>());
+    let (frames, _) = drained(&mut newest);
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [7]);
+    // Twelve more: the client never waited for the observers; they keep the newest eight.
+    run(8..20);
+    let (frames, replies) = drained(&mut every);
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (12..20).collect::<Vec<_>>());
+    assert_eq!(replies, (12..20).collect::<Vec<_>>());
+    let (frames, _) = drained(&mut newest);
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [19]);
+}
+
 #[test]
 fn a_bad_frame_among_good_ones_gets_an_error_and_the_session_goes_on() {
     let prefix = unique_prefix("badf");

@@ -36,12 +36,16 @@ pub const EVENT_PEER_DIED: EventId = EventId::new(1);
 /// How often a blocked wait looks whether the other side died.
 pub const LIVENESS_PERIOD: Duration = Duration::from_millis(200);
 
-/// Frames kept per subscriber (newest wins).
-pub const FRAME_BUFFER: usize = 1;
+/// Frames kept per observer (the service's subscriber buffer): an observer that falls up to
+/// this many frames behind (a recorder descheduled for a few milliseconds of a 1 kHz session)
+/// still gets every frame; past it the oldest is dropped, never the client slowed.
+pub const FRAME_BUFFER: usize = 8;
+/// Frames the daemon's own subscriber keeps: one, so that it always answers the newest frame.
+pub const DAEMON_FRAME_BUFFER: usize = 1;
 /// Frames one subscriber may hold at once: the newest, and the next while draining to it.
 pub const FRAME_BORROWED: usize = 2;
-/// Replies kept per subscriber.
-pub const CONTACTS_BUFFER: usize = 4;
+/// Replies kept per subscriber (the client and each observer), as deep as the frames.
+pub const CONTACTS_BUFFER: usize = 8;
 /// Replies one subscriber may hold at once.
 pub const CONTACTS_BORROWED: usize = 2;
 
@@ -54,7 +58,7 @@ pub struct ChannelQos {
     pub publishers: usize,
     /// Subscribers: the session's other side and every observer.
     pub subscribers: usize,
-    /// Samples kept per subscriber.
+    /// Samples kept per subscriber, at most (the service's subscriber buffer).
     pub buffer: usize,
     /// Samples a subscriber may hold at once.
     pub borrowed: usize,
