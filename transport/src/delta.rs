@@ -84,24 +84,36 @@ fn unzigzag(z: u32) -> u32 {
     (z >> 1) ^ 0u32.wrapping_sub(z & 1)
 }
 
-/// Adds the coded differences in `raw` (bitmap and planes of `count` floats, for a state of
-/// `rows` rows) to `state`, saving what it overwrites in `undo` when given.
-fn apply(raw: &[u8], rows: usize, count: usize, state: &mut [f32], mut undo: Option<&mut Vec<u32>>) {
-    let (map, planes) = raw.split_at(bitmap_bytes(rows));
+/// Reads the `count` zigzag-coded differences out of their four byte planes into `zs`, one
+/// pass that vectorises.
+fn unplane(planes: &[u8], count: usize, zs: &mut Vec<u32>) {
     let (low, rest) = planes.split_at(count);
     let (second, rest) = rest.split_at(count);
     let (third, high) = rest.split_at(count);
-    let mut zs = low.iter().zip(second).zip(third).zip(high).map(|(((a, b), c), d)| unzigzag(u32::from_le_bytes([*a, *b, *c, *d])));
+    zs.clear();
+    zs.extend(low.iter().zip(second).zip(third).zip(high).map(|(((a, b), c), d)| u32::from_le_bytes([*a, *b, *c, *d])));
+}
+
+/// Adds the zigzag-coded differences `zs`, three per row the bitmap `map` marks, to `state`,
+/// saving what it overwrites in `undo` when given.
+fn apply(map: &[u8], zs: &[u32], state: &mut [f32], mut undo: Option<&mut Vec<u32>>) {
     let state = bits_mut(state);
+    let mut zs = zs.chunks_exact(3);
     for r in marked_rows(map) {
-        for v in &mut state[3 * r..3 * r + 3] {
-            let d = zs.next().expect("one z per changed float");
-            if let Some(u) = undo.as_deref_mut() {
-                u.push(*v);
-            }
-            *v = v.wrapping_add(d);
+        let (row, z) = (&mut state[3 * r..3 * r + 3], zs.next().expect("three zs per marked row"));
+        if let Some(u) = undo.as_deref_mut() {
+            u.extend_from_slice(row);
+        }
+        for (v, z) in row.iter_mut().zip(z) {
+            *v = v.wrapping_add(unzigzag(*z));
         }
     }
+}
+
+/// Whether two runs of float bits differ anywhere: one pass of XOR and OR, which vectorises,
+/// rather than a memcmp call per run.
+fn differ(a: &[u32], b: &[u32]) -> bool {
+    a.iter().zip(b).fold(0, |acc, (x, y)| acc | (x ^ y)) != 0
 }
 
 /// The rows a bitmap marks, in order.
@@ -142,11 +154,10 @@ impl Encoder {
         self.raw.clear();
         self.raw.resize(bitmap, 0);
         self.zs.clear();
-        // Eight rows (one bitmap byte) at a time: most are unchanged, and comparing 96 bytes
-        // whole is a vectorised memcmp.
+        // Eight rows (one bitmap byte) at a time: most are unchanged.
         let (new, old) = (bits(state), bits(base));
         for (byte_at, (n8, o8)) in new.chunks(24).zip(old.chunks(24)).enumerate() {
-            if n8 == o8 {
+            if !differ(n8, o8) {
                 continue;
             }
             let mut mark = 0u8;
@@ -178,7 +189,7 @@ impl Encoder {
     /// Turns `base`, the base of the last [`Encoder::encode`], into the state it encoded: a
     /// client's copy of the daemon's base follows a kept delta without copying the whole state.
     pub fn apply_last(&self, base: &mut [f32]) {
-        apply(&self.raw, base.len() / 3, self.zs.len(), base, None);
+        apply(&self.raw[..bitmap_bytes(base.len() / 3)], &self.zs, base, None);
     }
 }
 
@@ -187,6 +198,7 @@ impl Encoder {
 pub struct Decoder {
     decompressor: zstd::bulk::Decompressor<'static>,
     raw: Vec<u8>,
+    zs: Vec<u32>,
     rows: usize,
     count: usize,
     undo: Vec<u32>,
@@ -195,7 +207,7 @@ pub struct Decoder {
 impl Decoder {
     /// A decoder with empty buffers.
     pub fn new() -> Result<Self, DeltaError> {
-        Ok(Self { decompressor: zstd::bulk::Decompressor::new().map_err(DeltaError::Zstd)?, raw: Vec::new(), rows: 0, count: 0, undo: Vec::new() })
+        Ok(Self { decompressor: zstd::bulk::Decompressor::new().map_err(DeltaError::Zstd)?, raw: Vec::new(), zs: Vec::new(), rows: 0, count: 0, undo: Vec::new() })
     }
 
     /// Reads the delta `body` (everything after the frame header; up to 3 bytes of padding
@@ -240,7 +252,9 @@ impl Decoder {
         debug_assert_eq!(state.len(), 3 * self.rows);
         self.undo.clear();
         self.undo.reserve(self.count);
-        apply(&self.raw, self.rows, self.count, state, Some(&mut self.undo));
+        let bitmap = bitmap_bytes(self.rows);
+        unplane(&self.raw[bitmap..], self.count, &mut self.zs);
+        apply(&self.raw[..bitmap], &self.zs, state, Some(&mut self.undo));
     }
 
     /// Puts back in `state` what the last [`Decoder::apply`] overwrote.
