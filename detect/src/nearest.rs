@@ -412,6 +412,19 @@ impl Probe<'_> {
         let (ms0, lf0) = strip_weights(&[0.0; RING_STRIPS]);
         for i in (lo..=hi).step_by(stride) {
             let q = p - t.point(i);
+            // A ring whose plane, less its spokes' offset from it, lies farther than the seeds
+            // kept holds no nearer one (most rings away from the point's own): the seeds are not
+            // read. The offset is read only where the plane alone is that far; the slack keeps
+            // rounding from dropping a tie.
+            let worst = best[RING_TRIES - 1].0;
+            let along = q.dot(&self.cache.ring(t, i).n).abs();
+            if along * along >= worst {
+                let off = self.cache.plane_offset(t, i);
+                let above = along - off - PLANE_SLACK * (q.x.abs() + q.y.abs() + q.z.abs() + off);
+                if above > 0.0 && above * above >= worst {
+                    continue;
+                }
+            }
             let qs: [f32; STRIP_FLOATS] = std::array::from_fn(|f| q[f % 3]);
             let s = t.spokes_of(i);
             // The ring's spokes about the foot's, read as one block where they do not wrap.
@@ -770,6 +783,10 @@ const RING_TRIES: usize = 3;
 /// Rings either side of the point's own that [`Probe::ring_descent`] reads at most (every so
 /// many where more lie within its reach).
 const RING_SEED_RINGS: usize = 8;
+
+/// Relative slack of [`Probe::ring_descent`]'s plane bound, well above `f32` rounding of the
+/// distances it is compared with.
+const PLANE_SLACK: f32 = 1e-5;
 
 /// Strips of each ring [`Probe::ring_descent`] seeds on: the foot's and three either side.
 const RING_STRIPS: usize = 7;
