@@ -6,13 +6,13 @@ use crate::{Error, MethodKind, Options, ParryShape, Report};
 use clap::Args;
 use std::path::PathBuf;
 
-/// `lumen bench detect [--quick] [--scene gca|generated|all] [--model FILE] [--out DIR] [--data PATH] [more]`.
+/// `lumen bench detect [--quick] [--scene gca|generated|insufflated|all] [--model FILE] [--out DIR] [--data PATH] [more]`.
 #[derive(Debug, Clone, Args)]
 pub struct DetectArgs {
     /// The reduced sweep (under a minute on 2 cores): B = 32, x in {1, 4, 16}, 48 frames.
     #[arg(long)]
     pub quick: bool,
-    /// Scenes: gca, generated or all (default: all, or none beside --model).
+    /// Scenes: gca, generated, insufflated (an imported generated surface whose lumen is wider than its bends) or all (generated and gca; the default, or none beside --model).
     #[arg(long)]
     pub scene: Option<String>,
     /// A colon model written by `lumen import` (native, or the text format when it ends in
@@ -216,6 +216,7 @@ mod tests {
         assert!(m.scenes.is_empty() && m.model == Some(PathBuf::from("m.lumen")));
         let m = opts(&["--model", "m.lumen", "--scene", "gca"]).unwrap();
         assert!(m.scenes == vec![crate::ColonKind::Gca] && m.model.is_some());
+        assert_eq!(opts(&["--scene", "insufflated"]).unwrap().scenes, vec![crate::ColonKind::Insufflated]);
     }
 
     #[test]

@@ -178,7 +178,7 @@ impl MethodKind {
 /// | flag | field |
 /// |---|---|
 /// | `--quick` | start from [`Options::quick`] instead of [`Options::full`] |
-/// | `--scene gca\|generated\|all` (default `all`) | [`Options::scenes`] ([`Options::set_scene`]) |
+/// | `--scene gca\|generated\|insufflated\|all` (default `all`) | [`Options::scenes`] ([`Options::set_scene`]) |
 /// | `--data PATH` (folder with the GCA colon's `colon_20k_mm.obj` and `centerline_mm.csv`) | [`Options::data`] |
 /// | `--model FILE` (a model written by `lumen import`; alone unless `--scene` is given too) | [`Options::model`] |
 /// | `--out DIR` (default `bench-out`) | not here: `run(...)?.write(DIR)` |
@@ -309,13 +309,16 @@ impl Options {
         }
     }
 
-    /// `--scene`: `gca`, `generated` or `all`.
+    /// `--scene`: `gca`, `generated`, `insufflated` (a generated surface whose lumen is wider than
+    /// its bends, imported: [`lumen_scene::insufflated`], at the bench's seed) or `all` (generated
+    /// and gca).
     pub fn set_scene(&mut self, scene: &str) -> Result<(), Error> {
         self.scenes = match scene {
             "gca" => vec![ColonKind::Gca],
             "generated" => vec![ColonKind::Generated],
+            "insufflated" => vec![ColonKind::Insufflated],
             "all" => vec![ColonKind::Generated, ColonKind::Gca],
-            other => return Err(Error::BadFlag { flag: "--scene", value: other.to_owned(), expected: "gca, generated or all" }),
+            other => return Err(Error::BadFlag { flag: "--scene", value: other.to_owned(), expected: "gca, generated, insufflated or all" }),
         };
         Ok(())
     }
