@@ -202,13 +202,14 @@ pub const OTHER_ANGLE_DEG: f32 = 30.0;
 /// `reach`: how far along the tube the seeds of the second descent go (the rod's radius, in the
 /// scene's unit; 0: no seeds). `within`: for a point inside the wall, the distance (scene's
 /// unit) within which other walls are sought and reported ([`Near::others`]; 0: none): the
-/// losing ends of the descents where they are other walls. `scan`, for the rod's ends: also
+/// losing ends of the descents where they are other walls. [`Search::Ends`], for the rod's ends: also
 /// descend from the pockets of the wall around the point ([`scan_pockets`], which says why the
 /// ends), and, where no other wall is found yet, from the nearest seeds facing the point from
 /// another direction. Elsewhere along the rod a wall ahead of a sample lies in the next
 /// sample's section; searching there too found nothing more in the colonoscopy, at a cost
-/// (docs/decisions/detect.md).
-pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32, within: f32, scan: bool) -> Near {
+/// (docs/decisions/detect.md). Between the ends, [`Search::Across`].
+pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32, within: f32, search: Search) -> Near {
+    let scan = matches!(search, Search::Ends);
     let side = if from.outside { 1.0 } else { -1.0 };
     // Rings within the search's distance along the tube: where they are denser than a descent's
     // steps cover, its budget grows by them (a step stops at each ring it crosses).
@@ -239,6 +240,9 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         spare[3] = probe.box_descents(&from, reach, &mut end);
     } else if reach > 0.0 {
         spare[1] = probe.ring_descent(&from, start, reach, &mut end);
+        if let Search::Across(across) = search {
+            spare[3] = probe.across_descents(across, &mut end);
+        }
     }
     let Some((normal, dist)) = judge(&mut probe, &end) else {
         // Not a wall facing the way the side says (a fold seen from behind): the section's own
@@ -260,6 +264,17 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         probe.other_way_descents(&mut seeds, n_own, start.k, normal, within, &mut found);
     }
     Near { first, others: pick_others(&from, &mut found.at[..found.n], normal, cos) }
+}
+
+/// What [`nearest`] searches beyond its seeds.
+#[derive(Debug, Clone, Copy)]
+pub enum Search<'a> {
+    /// The rod's ends: the pockets of the wall around the point, the patches nearer than the
+    /// wall found, and seeds facing it from another direction.
+    Ends,
+    /// Between the ends: a descent from each wall the point's section sees across the lumen
+    /// ([`crate::around::walls_around`]), whatever its distance ([`Probe::across_descents`]).
+    Across(&'a [Option<Gap>]),
 }
 
 /// The wall being searched and the point searched from: what every descent reads.
@@ -536,6 +551,28 @@ impl Probe<'_> {
             let at = Patch { seg: i, u: 0.5, k, l: 0.5 };
             let here = self.local(at);
             if !here.faces(p, self.cache.ring(t, i).o, self.side) {
+                continue;
+            }
+            let e = descend(self, at, here, None, OTHER_ITERATIONS);
+            if e.d2 < end.d2 {
+                displaced = Some(std::mem::replace(end, e));
+            }
+        }
+        displaced
+    }
+
+    /// A descent from each wall the point's section sees across the lumen (`across`, from
+    /// [`crate::around::walls_around`]) that faces the point, however far its reading: where the
+    /// lumen is pressed into a slit narrower than the scope, the nearest point of the far wall
+    /// can lie in a patch's middle, nearer than the wall found first while every ring seed there
+    /// is farther (on the GCA colon inflated four times, 5.35 mm against 6.52, no seed within
+    /// 6.52). The nearer end becomes `end`; returns the end it displaced last, if any.
+    fn across_descents(&mut self, across: &[Option<Gap>], end: &mut End) -> Option<End> {
+        let mut displaced = None;
+        for g in across.iter().flatten() {
+            let at = Patch { seg: g.seg, k: g.k, u: g.u.clamp(0.0, 1.0), l: g.l.clamp(0.0, 1.0) };
+            let here = self.local(at);
+            if !here.faces(self.p, self.cache.ring(self.t, at.seg).o, self.side) {
                 continue;
             }
             let e = descend(self, at, here, None, OTHER_ITERATIONS);

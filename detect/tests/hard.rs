@@ -636,3 +636,58 @@ fn hard_fold_crest_across_the_strips_is_never_missed() {
     }
     assert!(ends > 20, "only {ends} rod ends overlap a tip");
 }
+
+#[test]
+fn hard_slit_whose_far_wall_runs_down_along_the_tube() {
+    // A slit: a lumen 40 wide, its floor 7 below the midline, its ceiling 7.5 above up to ring
+    // 50 and from there running down along the tube at 45 degrees to 2 above at ring 55.5
+    // (rings 1 apart, 32 spokes). A rod of radius 6.5 along the slit, 0.5 below the midline:
+    // its section's nearest wall is the floor, 6.5 away, and the ceiling in the section is
+    // farther, but ahead along the tube the ramp comes nearer: a sample at x up to 55 overlaps
+    // it by `6.5 - (58 - x) / sqrt(2)`, and must be reported that deep. No ring seed about the
+    // floor's strips lies on the ceiling; the section sees it across the lumen.
+    let (rings, spokes) = (90, 32);
+    let ceiling = |i: usize| (7.5 - (i as f32 - 50.0).max(0.0)).max(2.0);
+    let colon = tube(
+        rings,
+        spokes,
+        |i| [i as f32, 0.0, 0.0],
+        |i, k| {
+            let a = k as f32 * TAU / spokes as f32;
+            let (c, s) = (a.cos(), a.sin());
+            let up = if s > 0.0 {
+                ceiling(i) / s
+            } else if s < 0.0 {
+                -7.0 / s
+            } else {
+                f32::INFINITY
+            };
+            let t = (20.0 / c.abs().max(1e-6)).min(up);
+            [0.0, t * c, t * s]
+        },
+    );
+    let (r, x) = (6.5, 4u32);
+    // The margin of a physics client (2, as `lumen sim`'s): walls within it are reported too.
+    let mut scene = interior(colon, line([30.0, 0.0, -0.5], [70.0, 0.0, -0.5], 41, r), x, Method::Signed);
+    scene.margin = 2.0;
+    let cs = run(&scene);
+    assert_finite(&cs);
+    let mut checked = 0;
+    for s in 0..40 * x as usize + 1 {
+        let px = 30.0 + s as f32 / x as f32;
+        let ramp = (58.0 - px) / 2f32.sqrt();
+        // Where the sample's own section crosses the ramp (x past 50) and the ramp's nearest
+        // point lies on it: the section sees the ceiling across the lumen, and a descent from
+        // there runs down the ramp. (Short of x = 50 the section's ceiling is the flat part, a
+        // minimum of its own the ramp's basin does not reach: not covered.)
+        let foot = 0.5 * (px + 58.0);
+        if px <= 50.0 || px > 55.0 || foot > 55.0 || r - ramp < 0.05 {
+            continue;
+        }
+        let want = r - ramp;
+        let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+        assert!(got >= want - 0.05, "sample {s} at x {px}: the ramp {ramp:.3} away (overlap {want:.3}), reported {got}");
+        checked += 1;
+    }
+    assert!(checked >= 8, "only {checked} samples checked");
+}

@@ -8,7 +8,7 @@ use super::{Emit, SignedParams, NEAREST_REACH};
 use crate::around::{merge, walls_around};
 use crate::broad::track::{Track, Walk};
 use crate::broad::{Counters, TubeFrame};
-use crate::nearest::{nearest, MAX_OTHERS};
+use crate::nearest::{nearest, Search, MAX_OTHERS};
 use crate::samples::RodSamples;
 use crate::section::{Gap, Reading, TubeCache};
 use crate::view::TubeView;
@@ -90,7 +90,7 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
             g.sd > -reach || -g.sd < reach * (1.0 + cache.slope_near(&tube.view, g.seg, reach).powi(2)).sqrt()
         };
         if params.nearest && (end || seek(tube.cache, &g)) {
-            let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, end);
+            let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, if end { Search::Ends } else { Search::Across(&around) });
             (g, others) = (near.first, near.others);
         }
         merge(g.normal, &mut others, &around);

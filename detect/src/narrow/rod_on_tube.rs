@@ -4,7 +4,7 @@
 
 use super::{Emit, SignedParams, NEAREST_REACH};
 use crate::broad::{Counters, RodFrame, TubeFrame};
-use crate::nearest::nearest;
+use crate::nearest::{nearest, Search};
 use crate::section::Gap;
 use lumen_proto::Contact;
 
@@ -58,7 +58,7 @@ pub fn exterior(tube: TubeFrame, rod_frame: RodFrame, best: &mut Vec<(f32, Gap)>
     for (s, &(depth, g)) in best.iter().enumerate() {
         let r = rod.radius[s];
         let (depth, g) = if params.nearest && depth > -NEAREST_REACH * emit.margin {
-            let g = nearest(t, cache, &rod.pos[s], g, 0.0, 0.0, false).first;
+            let g = nearest(t, cache, &rod.pos[s], g, 0.0, 0.0, Search::Across(&[])).first;
             (r - g.sd, g)
         } else {
             (depth, g)
