@@ -36,6 +36,21 @@ fn section(t: &Tube, ring: usize) -> Vec<[f32; 2]> {
     (0..t.spokes).map(|k| [t.spoke(ring, k)[1], t.spoke(ring, k)[2]]).collect()
 }
 
+/// A tube along x, rings 1 apart: spoke `k` of ring `i` is `(0, y, z)` for `(y, z) =
+/// wall(i, k, (cos a, sin a))`, `a` the spoke's angle (`k` turns of `TAU / spokes`).
+fn along_x(rings: usize, spokes: usize, wall: impl Fn(usize, usize, (f32, f32)) -> (f32, f32)) -> Tube {
+    tube(
+        rings,
+        spokes,
+        |i| [i as f32, 0.0, 0.0],
+        |i, k| {
+            let a = k as f32 * TAU / spokes as f32;
+            let (y, z) = wall(i, k, (a.cos(), a.sin()));
+            [0.0, y, z]
+        },
+    )
+}
+
 fn assert_finite(cs: &[lumen_detect::Contact]) {
     for c in cs {
         let all = c.point_a.iter().chain(&c.point_b).chain(&c.normal).chain(&c.weights_b).chain([&c.depth, &c.param_a, &c.param_b]);
@@ -585,16 +600,10 @@ fn hard_fold_crest_across_the_strips_is_never_missed() {
     // along the tube at several angles and distances from the axis, past the crest.
     let (rings, spokes) = (60, 48);
     let crest = |k: usize| 15 + k.abs_diff(24);
-    let colon = tube(
-        rings,
-        spokes,
-        |i| [i as f32, 0.0, 0.0],
-        |i, k| {
-            let a = k as f32 * TAU / spokes as f32;
-            let r = if i < crest(k) { 53.0 } else { 39.0 };
-            [0.0, r * a.cos(), r * a.sin()]
-        },
-    );
+    let colon = along_x(rings, spokes, |i, k, (c, s)| {
+        let r = if i < crest(k) { 53.0 } else { 39.0 };
+        (r * c, r * s)
+    });
     let tips: Vec<V> = (0..rings).flat_map(|i| (0..spokes).map(move |k| (i, k))).map(|(i, k)| add(colon.points[i], colon.spoke(i, k))).collect();
     let (r, x) = (6.5, 4u32);
     // Checks sample `s` at `p` against the nearest tip; whether it overlapped one.
@@ -648,24 +657,17 @@ fn hard_slit_whose_far_wall_runs_down_along_the_tube() {
     // floor's strips lies on the ceiling; the section sees it across the lumen.
     let (rings, spokes) = (90, 32);
     let ceiling = |i: usize| (7.5 - (i as f32 - 50.0).max(0.0)).max(2.0);
-    let colon = tube(
-        rings,
-        spokes,
-        |i| [i as f32, 0.0, 0.0],
-        |i, k| {
-            let a = k as f32 * TAU / spokes as f32;
-            let (c, s) = (a.cos(), a.sin());
-            let up = if s > 0.0 {
-                ceiling(i) / s
-            } else if s < 0.0 {
-                -7.0 / s
-            } else {
-                f32::INFINITY
-            };
-            let t = (20.0 / c.abs().max(1e-6)).min(up);
-            [0.0, t * c, t * s]
-        },
-    );
+    let colon = along_x(rings, spokes, |i, _, (c, s)| {
+        let up = if s > 0.0 {
+            ceiling(i) / s
+        } else if s < 0.0 {
+            -7.0 / s
+        } else {
+            f32::INFINITY
+        };
+        let t = (20.0 / c.abs().max(1e-6)).min(up);
+        (t * c, t * s)
+    });
     let (r, x) = (6.5, 4u32);
     // The margin of a physics client (2, as `lumen sim`'s): walls within it are reported too.
     let mut scene = interior(colon, line([30.0, 0.0, -0.5], [70.0, 0.0, -0.5], 41, r), x, Method::Signed);
