@@ -361,7 +361,7 @@ impl Session {
 }
 
 /// Watches a session's frames and replies (a viewer, a recorder) without slowing it: it sees
-/// the newest frame, and replies while it keeps up.
+/// the newest frame, or every frame after `every_frame()`, and replies while it keeps up.
 #[pyclass(unsendable, module = "lumen")]
 pub struct Observer {
     inner: Option<lumen_client::Observer>,
@@ -373,6 +373,15 @@ impl Observer {
     #[getter]
     fn session(&self, py: Python<'_>) -> PyResult<u64> {
         Ok(self.inner.as_ref().ok_or_else(|| errors::closed(py, "observer"))?.info().session)
+    }
+
+    /// Asks for every frame in the order sent rather than the newest (a recorder): over
+    /// iceoryx2 the session keeps 8 frames for each observer, so one up to 8 frames behind
+    /// loses none (frame numbers tell what it missed); over zenoh it changes nothing (an ask is
+    /// answered with the newest frame).
+    fn every_frame(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.inner.as_mut().ok_or_else(|| errors::closed(py, "observer"))?.every_frame();
+        Ok(())
     }
 
     /// The next thing seen, waiting up to `timeout` seconds: an `ObservedFrame` (a copy of the

@@ -225,6 +225,36 @@ def test_an_observer_sees_the_sessions_frames_and_contacts(start_daemon, transpo
     assert e.value.session == id
 
 
+def test_an_observer_of_every_frame_keeps_eight_frames_over_iceoryx2(start_daemon):
+    d = start_daemon("every")
+    s = d.client("iceoryx2").open_session(st.SPEC)
+    watcher = d.client("iceoryx2")
+    every, newest = watcher.observe(s.id), watcher.observe(s.id)
+    every.every_frame()
+
+    def drained(obs):
+        frames, replies = [], []
+        while True:
+            try:
+                o = obs.next(0.3)
+            except lumen.TimeoutError:
+                return frames, replies
+            (frames if isinstance(o, lumen.ObservedFrame) else replies).append(o.frame)
+
+    # Twelve frames while neither observer reads: the client never waits for them; one keeps
+    # the last eight in order with their replies, the other skips to the newest.
+    sent = []
+    for k in range(12):
+        n = s.submit_state(st.state(8.5 + 0.1 * k))
+        reply_to(s, n)
+        sent.append(n)
+    frames, replies = drained(every)
+    assert frames == sent[-8:] and replies == sent[-8:], (frames, replies)
+    frames, _ = drained(newest)
+    assert frames == sent[-1:], frames
+    s.close()
+
+
 @pytest.mark.parametrize("transport", TRANSPORTS)
 def test_an_invalid_spec_is_refused_with_the_daemons_code(start_daemon, transport):
     d = start_daemon("ref", zenoh=transport == "zenoh")
