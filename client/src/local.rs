@@ -367,11 +367,8 @@ impl LocalObserver {
             // only when it is returned.
             let reply_first = !self.prefer_frame;
             self.prefer_frame = true;
-            if reply_first {
-                if let Some(r) = self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? {
-                    let r = self.contacts_sample.insert(r);
-                    return Ok(crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() }));
-                }
+            if reply_first && self.take_reply()? {
+                return Ok(self.reply());
             }
             // Drain the frame queue to its newest sample (releasing the one held since last time),
             // or take its oldest when every frame is wanted.
@@ -383,11 +380,8 @@ impl LocalObserver {
                     break;
                 }
             }
-            if newest.is_none() {
-                if let Some(r) = self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))? {
-                    let r = self.contacts_sample.insert(r);
-                    return Ok(crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() }));
-                }
+            if newest.is_none() && self.take_reply()? {
+                return Ok(self.reply());
             }
             if let Some(f) = newest {
                 self.prefer_frame = false;
@@ -405,6 +399,18 @@ impl LocalObserver {
                 }
             }
         }
+    }
+
+    /// Takes the next reply from the queue, if any, holding it until the next call.
+    fn take_reply(&mut self) -> Result<bool, Error> {
+        self.contacts_sample = self.replies.receive().map_err(|e| Error::iox("receiving contacts", e))?;
+        Ok(self.contacts_sample.is_some())
+    }
+
+    /// The reply [`LocalObserver::take_reply`] took.
+    fn reply(&self) -> crate::Observed<'_> {
+        let r = self.contacts_sample.as_ref().expect("a reply was taken");
+        crate::Observed::Contacts(ContactsView { header: r.user_header(), contacts: r.payload() })
     }
 }
 

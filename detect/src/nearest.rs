@@ -548,15 +548,7 @@ impl Probe<'_> {
             if d2 >= end.d2 {
                 break;
             }
-            let at = Patch { seg: i, u: 0.5, k, l: 0.5 };
-            let here = self.local(at);
-            if !here.faces(p, self.cache.ring(t, i).o, self.side) {
-                continue;
-            }
-            let e = descend(self, at, here, None, OTHER_ITERATIONS);
-            if e.d2 < end.d2 {
-                displaced = Some(std::mem::replace(end, e));
-            }
+            displaced = self.descent_from(Patch { seg: i, u: 0.5, k, l: 0.5 }, end).or(displaced);
         }
         displaced
     }
@@ -571,16 +563,20 @@ impl Probe<'_> {
         let mut displaced = None;
         for g in across.iter().flatten() {
             let at = Patch { seg: g.seg, k: g.k, u: g.u.clamp(0.0, 1.0), l: g.l.clamp(0.0, 1.0) };
-            let here = self.local(at);
-            if !here.faces(self.p, self.cache.ring(self.t, at.seg).o, self.side) {
-                continue;
-            }
-            let e = descend(self, at, here, None, OTHER_ITERATIONS);
-            if e.d2 < end.d2 {
-                displaced = Some(std::mem::replace(end, e));
-            }
+            displaced = self.descent_from(at, end).or(displaced);
         }
         displaced
+    }
+
+    /// A descent from `at` where the wall there faces the point; where it ends nearer than
+    /// `end`, it becomes `end` and the end it displaced is returned.
+    fn descent_from(&mut self, at: Patch, end: &mut End) -> Option<End> {
+        let here = self.local(at);
+        if !here.faces(self.p, self.cache.ring(self.t, at.seg).o, self.side) {
+            return None;
+        }
+        let e = descend(self, at, here, None, OTHER_ITERATIONS);
+        (e.d2 < end.d2).then(|| std::mem::replace(end, e))
     }
 
     /// For the rod's ends: a descent from each pocket of the wall within `dist` around the point
