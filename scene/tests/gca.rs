@@ -118,6 +118,8 @@ fn scope_frames_in_the_real_colon_stay_inside_except_recorded_escapes() {
 fn gca_paths_names_what_is_missing() {
     use lumen_scene::gca::{attribution, default_dir, paths, CENTERLINE, MESH};
     let d = std::env::temp_dir().join(format!("lumen-scene-{}-gca", std::process::id()));
+    // Empty, whatever an earlier run of the same process id left there.
+    let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     let err = paths(Some(&d)).unwrap_err().to_string();
     assert!(err.contains(MESH) && err.contains(CENTERLINE) && err.contains(&d.canonicalize().unwrap().display().to_string()), "{err}");
@@ -126,6 +128,7 @@ fn gca_paths_names_what_is_missing() {
     assert!(!err.contains(MESH) && err.contains(CENTERLINE), "{err}");
     std::fs::write(d.join(CENTERLINE), "").unwrap();
     assert_eq!(paths(Some(&d)).unwrap(), (d.join(MESH), d.join(CENTERLINE)));
+    std::fs::remove_dir_all(&d).unwrap();
     assert!(default_dir().ends_with("shared/data/colon-gca00090"));
     assert!(attribution().contains("CC BY 4.0") && attribution().contains("doi:10.1186/s12911-023-02111-9"));
 }
