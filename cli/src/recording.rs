@@ -17,7 +17,7 @@
 //! | topic | message encoding | schema | message |
 //! |---|---|---|---|
 //! | `/lumen/spec` | `json` | `jsonschema` | the [`SceneSpec`], once, first |
-//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta (`u32` 2, then a delta frame's payload: the 16-byte delta header and its zstd frame, against the frame before; files before it wrote `u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
+//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta against the frame before (`u32` 3, then a scaled delta frame's payload: the 16-byte delta header and its zstd frame; files before it wrote `u32` 2 and a plain delta's payload, or `u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
 //! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
 //! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
 //! | `/lumen/scene` | `json` | `foxglove.SceneUpdate`, `jsonschema` (Foxglove's own schema) | at most 60 a second of log time, the scope as a line and the reply's contacts as arrows, and the colon as triangles on the first frame and then at most once a second (see [`crate::foxglove`]); left out by `lumen record --no-scene` ([`WriterOptions`]) |
@@ -34,7 +34,7 @@
 use crate::foxglove::{SceneWriter, SCENE_UPDATE, SCENE_UPDATE_SCHEMA};
 use lumen_proto::wire::{self, ContactsHeader, FrameHeader, CONTACT_BYTES};
 use lumen_proto::{Contact, SceneSpec};
-use lumen_transport::delta::{Decoder, DeltaError, Encoder};
+use lumen_transport::delta::{Decoder, DeltaError, Encoder, Rows};
 use mcap::records::{MessageHeader, Metadata};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -73,9 +73,11 @@ FrameHeader (40 bytes): 0 u32 magic 'LMNF' | 4 u16 version | 6 u16 flags | 8 u64
 16 u64 frame | 24 u64 client_time_ns | 32 u32 floats | 36 u32 bodies
 then u32 kind: 0 = key frame, followed by floats x f32: every body's state in spec order (tube:
 per ring its control point x y z then its radial vectors x y z; rod: x y z per point), mm;
-2 = delta against the message before on this topic, followed by a delta frame's payload as
-proto/README.md section 2 ('Delta frames') gives it: u64 base, u32 changed rows, u32 encoded,
-then one zstd frame of the changed rows' bitmap and byte planes;
+3 = delta against the message before on this topic, followed by a scaled delta frame's payload
+as proto/README.md section 2 ('Delta frames') gives it (flags delta and scaled): u64 base,
+u32 changed rows, u32 encoded, then one zstd frame of the changed rows' bitmap, their scales'
+byte planes and their floats' byte planes;
+2 (earlier v3 files) = the same with a plain delta (flag delta alone: no scales);
 1 (v2 files) = delta, followed by u32 runs, then per run u32 start, u32 len, len x f32: the
 floats [start, start + len) that differ from the message before; the others are as there.
 The first message is a key frame, and one comes at least every 256.
@@ -158,7 +160,7 @@ pub enum FrameDecodeError {
     /// A key frame whose floats are not the header's count.
     #[error("key frame of {bytes} bytes for {floats} floats")]
     KeyFrameLength { bytes: usize, floats: usize },
-    /// A coded delta (kind 2) that does not decode.
+    /// A coded delta (kind 2 or 3) that does not decode.
     #[error("{0}")]
     Delta(String),
     /// A delta whose frame before has another size (or is missing).
@@ -170,8 +172,8 @@ pub enum FrameDecodeError {
     /// Bytes left after the last run of a delta.
     #[error("{0} bytes after the last run")]
     Trailing(usize),
-    /// Neither key (0) nor delta (1 or 2).
-    #[error("unknown frame kind {0} (0 key, 1 or 2 delta)")]
+    /// Neither key (0) nor delta (1, 2 or 3).
+    #[error("unknown frame kind {0} (0 key, 1, 2 or 3 delta)")]
     UnknownKind(u32),
 }
 
@@ -542,7 +544,7 @@ fn encode_frame_message(header: &FrameHeader, last: (&mut Vec<f32>, u64), state:
         last.extend_from_slice(state);
         state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
     } else {
-        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(if encoder.rows() == Rows::Scaled { 3u32 } else { 2 }).to_le_bytes());
         encoder.encode(last_frame, last, state, out)?;
         encoder.apply_last(last);
     }
@@ -550,7 +552,7 @@ fn encode_frame_message(header: &FrameHeader, last: (&mut Vec<f32>, u64), state:
 }
 
 thread_local! {
-    /// The decoder of coded deltas (kind 2), kept from one frame to the next.
+    /// The decoder of coded deltas (kind 2 or 3), kept from one frame to the next.
     static DECODER: std::cell::RefCell<Option<Decoder>> = const { std::cell::RefCell::new(None) };
 }
 
@@ -586,7 +588,8 @@ pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHe
                 return Err(FrameDecodeError::Trailing(r.0.len()));
             }
         }
-        2 => {
+        kind @ (2 | 3) => {
+            let coding = if kind == 3 { Rows::Scaled } else { Rows::Plain };
             if state.len() != floats {
                 return Err(FrameDecodeError::DeltaWithoutKey { floats, before: state.len() });
             }
@@ -596,7 +599,7 @@ pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHe
                     Some(x) => x,
                     None => d.insert(Decoder::new().map_err(|e| FrameDecodeError::Delta(e.to_string()))?),
                 };
-                decoder.read(r.0, floats).map_err(|e| FrameDecodeError::Delta(e.to_string()))?;
+                decoder.read(r.0, floats, coding).map_err(|e| FrameDecodeError::Delta(e.to_string()))?;
                 decoder.apply(state);
                 Ok::<(), FrameDecodeError>(())
             })?;
@@ -693,6 +696,26 @@ mod tests {
         let m = message(&header(21, 1002), &mut last, &state, false);
         let err = decode_frame(&m[..m.len() - 3], &mut decoded).unwrap_err().to_string();
         assert!(err.contains("coded bytes"), "{err}");
+    }
+
+    #[test]
+    fn deltas_are_written_scaled_and_earlier_plain_ones_still_read() {
+        let base: Vec<f32> = (0..300).map(|i| 10.0 + i as f32 * 0.25).collect();
+        let lengthened: Vec<f32> = base.iter().map(|v| v * 1.001).collect();
+        let kind = |m: &[u8]| u32::from_le_bytes(m[wire::FRAME_HEADER_BYTES..wire::FRAME_HEADER_BYTES + 4].try_into().unwrap());
+        let (mut last, mut decoded) = (Vec::new(), Vec::new());
+        decode_frame(&message(&header(0, 300), &mut last, &base, true), &mut decoded).unwrap();
+        let scaled = message(&header(1, 300), &mut last.clone(), &lengthened, false);
+        assert_eq!(kind(&scaled), 3);
+        let mut plain = Vec::new();
+        encode_frame_message(&header(1, 300), (&mut last, 0), &lengthened, false, &mut Encoder::with_rows(Rows::Plain).unwrap(), &mut plain).unwrap();
+        assert_eq!(kind(&plain), 2);
+        assert!(scaled.len() < plain.len(), "scaled {} bytes, plain {}", scaled.len(), plain.len());
+        for m in [&scaled, &plain] {
+            let mut state = decoded.clone();
+            decode_frame(m, &mut state).unwrap();
+            assert!(state.iter().zip(&lengthened).all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
     }
 
     #[test]

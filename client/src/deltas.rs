@@ -9,7 +9,7 @@
 //! has no such base, or a later frame's reply first (the kept frame was skipped or lost), makes
 //! the next frame whole: the daemon's base is then not known.
 
-use lumen_proto::wire::{encode_frame, FrameHeader, Status, FLAG_DELTA, FLAG_KEEP, FRAME_HEADER_BYTES};
+use lumen_proto::wire::{encode_frame, FrameHeader, Status, FLAG_KEEP, FRAME_HEADER_BYTES};
 use lumen_transport::delta::{DeltaError, Encoder};
 
 /// How a session's frames went out.
@@ -103,7 +103,7 @@ impl Deltas {
                 };
                 encoder.encode(base_frame, &self.base, state, out)?;
                 if out.len() < full {
-                    header.flags = FLAG_DELTA | FLAG_KEEP;
+                    header.flags = encoder.rows().flags() | FLAG_KEEP;
                     out[..FRAME_HEADER_BYTES].copy_from_slice(&header.to_bytes());
                     // No whole copy: the encoder holds what changed until the reply comes
                     // (no other delta is encoded while this one waits).
@@ -142,6 +142,7 @@ impl Deltas {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lumen_proto::wire::{FLAG_DELTA, FLAG_SCALED};
 
     #[test]
     fn frames_go_whole_until_a_kept_one_is_answered_then_as_deltas() {
@@ -158,18 +159,18 @@ mod tests {
         assert_eq!(send(&mut d, 1, 1), (0, 12_040));
         d.answered(0, 0);
         let (flags, bytes) = send(&mut d, 2, 2);
-        assert_eq!(flags, FLAG_DELTA | FLAG_KEEP);
+        assert_eq!(flags, FLAG_DELTA | FLAG_SCALED | FLAG_KEEP);
         assert!(bytes < 200, "{bytes} bytes for 10 changed rows");
         d.answered(2, 0);
-        assert_eq!(send(&mut d, 3, 3).0, FLAG_DELTA | FLAG_KEEP);
+        assert_eq!(send(&mut d, 3, 3).0, FLAG_DELTA | FLAG_SCALED | FLAG_KEEP);
         // Its reply is an error: the base stays frame 2, the next delta is against it.
         d.answered(3, Status::NonFinite as u16);
-        assert_eq!(send(&mut d, 4, 4).0, FLAG_DELTA | FLAG_KEEP);
+        assert_eq!(send(&mut d, 4, 4).0, FLAG_DELTA | FLAG_SCALED | FLAG_KEEP);
         // A later frame answered first: frame 4's fate unknown, so whole again.
         d.answered(5, 0);
         assert_eq!(send(&mut d, 6, 6).0, FLAG_KEEP);
         d.answered(6, 0);
-        assert_eq!(send(&mut d, 7, 7).0, FLAG_DELTA | FLAG_KEEP);
+        assert_eq!(send(&mut d, 7, 7).0, FLAG_DELTA | FLAG_SCALED | FLAG_KEEP);
         // The daemon has no such base: whole again.
         d.answered(7, Status::NoBase as u16);
         assert_eq!(send(&mut d, 8, 8).0, FLAG_KEEP);

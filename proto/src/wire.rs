@@ -45,8 +45,13 @@ pub const FLAG_DELTA: u16 = 1;
 /// `FrameHeader::flags` bit: keep this frame's state as the session's base once it is answered
 /// with status 0 (the daemon holds one base; a newer kept frame replaces it).
 pub const FLAG_KEEP: u16 = 2;
-/// The frame flags version 1 defines; any other bit is refused as malformed.
-pub const FRAME_FLAGS: u16 = FLAG_DELTA | FLAG_KEEP;
+/// `FrameHeader::flags` bit, with [`FLAG_DELTA`] only: each changed row of the delta also
+/// carries a scale, and its floats are coded against the base's row times that scale (a radial
+/// vector that only lengthens or shortens costs its scale and a few bits).
+pub const FLAG_SCALED: u16 = 4;
+/// The frame flags version 1 defines; any other bit, or [`FLAG_SCALED`] without
+/// [`FLAG_DELTA`], is refused as malformed.
+pub const FRAME_FLAGS: u16 = FLAG_DELTA | FLAG_KEEP | FLAG_SCALED;
 /// Size of [`DeltaHeader`] in bytes (after the frame header of a delta frame).
 pub const DELTA_HEADER_BYTES: usize = 16;
 
@@ -61,7 +66,7 @@ pub struct FrameHeader {
     pub magic: u32,
     /// [`PROTOCOL_VERSION`].
     pub version: u16,
-    /// [`FLAG_DELTA`] and [`FLAG_KEEP`]; other bits are reserved (0).
+    /// [`FLAG_DELTA`], [`FLAG_KEEP`] and [`FLAG_SCALED`]; other bits are reserved (0).
     pub flags: u16,
     /// The session id from the open reply.
     pub session: u64,
@@ -243,7 +248,7 @@ impl fmt::Display for FrameError {
             FrameError::TooShort { got } => write!(f, "frame of {got} bytes is shorter than its {FRAME_HEADER_BYTES}-byte header"),
             FrameError::Magic { got } => write!(f, "frame magic is {got:#010x}; expected {FRAME_MAGIC:#010x} (\"LMNF\")"),
             FrameError::Version { got } => write!(f, "frame version {got}; this daemon speaks version {PROTOCOL_VERSION}"),
-            FrameError::Flags { got } => write!(f, "frame flags are {got:#06x}; version {PROTOCOL_VERSION} defines only bit 0 (delta) and bit 1 (keep)"),
+            FrameError::Flags { got } => write!(f, "frame flags are {got:#06x}; version {PROTOCOL_VERSION} defines only bit 0 (delta), bit 1 (keep) and bit 2 (scaled, with delta only)"),
             FrameError::FrameNumber { got } => write!(f, "frame number {got} is beyond {MAX_FRAME_NUMBER} (2^53 - 1): number frames 0, 1, 2, ..."),
             FrameError::Session { expected, got } => write!(f, "frame names session {got}; this is session {expected}"),
             FrameError::Floats { expected, header, payload } => {
@@ -326,7 +331,7 @@ impl FrameHeader {
         if self.version != PROTOCOL_VERSION {
             return Err(FrameError::Version { got: self.version });
         }
-        if self.flags & !FRAME_FLAGS != 0 {
+        if self.flags & !FRAME_FLAGS != 0 || (self.flags & FLAG_SCALED != 0 && self.flags & FLAG_DELTA == 0) {
             return Err(FrameError::Flags { got: self.flags });
         }
         if self.frame > MAX_FRAME_NUMBER {
@@ -664,6 +669,8 @@ mod tests {
         assert_eq!(flags.check(5, &l, 30), Err(FrameError::Flags { got: 4 }));
         assert_eq!(FrameError::Flags { got: 4 }.status(), Status::Malformed);
         assert_eq!(FrameHeader { flags: FLAG_DELTA | FLAG_KEEP, ..good }.check(5, &l, 30), Ok(()));
+        assert_eq!(FrameHeader { flags: FLAG_DELTA | FLAG_SCALED, ..good }.check(5, &l, 30), Ok(()));
+        assert_eq!(FrameHeader { flags: 8 | FLAG_DELTA, ..good }.check(5, &l, 30), Err(FrameError::Flags { got: 9 }));
         let huge = FrameHeader { frame: u64::MAX, ..good };
         assert_eq!(huge.check(5, &l, 30), Err(FrameError::FrameNumber { got: u64::MAX }));
         assert_eq!(FrameHeader { frame: MAX_FRAME_NUMBER, ..good }.check(5, &l, 30), Ok(()));

@@ -7,7 +7,7 @@ use crate::registry::Entry;
 use lumen_detect::Detector;
 use lumen_proto::wire::{ContactsHeader, FrameError, FrameHeader, Status, FLAG_TRUNCATED};
 use lumen_proto::{Contact, StateLayout};
-use lumen_transport::delta::Decoder;
+use lumen_transport::delta::{Decoder, Rows};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -88,7 +88,7 @@ impl Engine {
             }
         }
         let decoder = self.decoder.as_mut().expect("made above");
-        let delta = match decoder.read(body, floats) {
+        let delta = match decoder.read(body, floats, Rows::of(&header)) {
             Ok(d) => d,
             Err(e) => {
                 reply.set_error(Status::BadDelta, &e);
@@ -245,7 +245,9 @@ mod tests {
 
     #[test]
     fn delta_frames_rebuild_the_state_on_the_kept_base_and_never_damage_it() {
-        use lumen_proto::wire::{FLAG_DELTA, FLAG_KEEP};
+        use lumen_proto::wire::{FLAG_DELTA, FLAG_KEEP, FLAG_SCALED};
+        // The encoder writes scaled deltas: every delta frame here carries both flags.
+        const FLAG_DELTA_SCALED: u16 = FLAG_DELTA | FLAG_SCALED;
         let mut e = engine();
         let mut fresh = engine();
         let floats = e.layout().floats;
@@ -264,12 +266,12 @@ mod tests {
         };
         // Before any kept frame there is no base.
         let d = delta(&mut enc, 0, &state(0), &state(1));
-        assert_eq!(e.run_delta(h(0, FLAG_DELTA), &d, None).0.status(), Some(Status::NoBase));
+        assert_eq!(e.run_delta(h(0, FLAG_DELTA_SCALED), &d, None).0.status(), Some(Status::NoBase));
         // Frame 1 full and kept; frame 2 a kept delta on it; frame 3 an unkept delta on 2; frame
         // 4 again on 2 (3 was not kept): each answered as the full frame is by a fresh engine.
         assert_eq!(e.run(Ok((h(1, FLAG_KEEP), &state(1)))).0.status, 0);
         let check = |e: &mut Engine, fresh: &mut Engine, n: u64, flags: u16, body: &[u8]| {
-            let (r, c) = e.run_delta(h(n, FLAG_DELTA | flags), body, None);
+            let (r, c) = e.run_delta(h(n, FLAG_DELTA_SCALED | flags), body, None);
             let (r, c) = (r, c.to_vec());
             let own = FrameHeader { session: fresh.id, ..h(n, 0) };
             let (f, fc) = fresh.run(Ok((own, &state(n))));
@@ -280,28 +282,28 @@ mod tests {
         check(&mut e, &mut fresh, 2, FLAG_KEEP, &delta(&mut enc, 1, &state(1), &state(2)));
         check(&mut e, &mut fresh, 3, 0, &delta(&mut enc, 2, &state(2), &state(3)));
         let stale = delta(&mut enc, 1, &state(1), &state(4));
-        let (r, _) = e.run_delta(h(4, FLAG_DELTA | FLAG_KEEP), &stale, None);
+        let (r, _) = e.run_delta(h(4, FLAG_DELTA_SCALED | FLAG_KEEP), &stale, None);
         assert_eq!(r.status(), Some(Status::NoBase));
         assert!(r.message().contains("the session's base is frame 2"), "{}", r.message());
         check(&mut e, &mut fresh, 5, 0, &delta(&mut enc, 2, &state(2), &state(5)));
         // Damaged deltas and a delta to a non-finite state: refused, the base as it was.
         let good = delta(&mut enc, 2, &state(2), &state(6));
-        let (r, _) = e.run_delta(h(6, FLAG_DELTA | FLAG_KEEP), &good[..good.len() - 3], None);
+        let (r, _) = e.run_delta(h(6, FLAG_DELTA_SCALED | FLAG_KEEP), &good[..good.len() - 3], None);
         assert_eq!(r.status(), Some(Status::BadDelta), "{}", r.message());
         let mut nan = state(6);
         nan[7] = f32::NAN;
-        let (r, _) = e.run_delta(h(7, FLAG_DELTA | FLAG_KEEP), &delta(&mut enc, 2, &state(2), &nan), None);
+        let (r, _) = e.run_delta(h(7, FLAG_DELTA_SCALED | FLAG_KEEP), &delta(&mut enc, 2, &state(2), &nan), None);
         assert_eq!(r.status(), Some(Status::NonFinite));
         check(&mut e, &mut fresh, 8, FLAG_KEEP, &delta(&mut enc, 2, &state(2), &state(8)));
         check(&mut e, &mut fresh, 9, 0, &delta(&mut enc, 8, &state(8), &state(9)));
         // Written whole for observers: the full frame of state 10, flags 0.
         let mut whole = Vec::new();
-        assert_eq!(e.run_delta(h(10, FLAG_DELTA), &delta(&mut enc, 8, &state(8), &state(10)), Some(&mut whole)).0.status, 0);
+        assert_eq!(e.run_delta(h(10, FLAG_DELTA_SCALED), &delta(&mut enc, 8, &state(8), &state(10)), Some(&mut whole)).0.status, 0);
         let mut full = Vec::new();
         lumen_proto::wire::encode_frame(&h(10, 0), &state(10), &mut full);
         assert!(whole == full);
         // A delta whose header says another float count is refused before it is read.
-        let (r, _) = e.run_delta(FrameHeader { floats: 3, ..h(11, FLAG_DELTA) }, &good, None);
+        let (r, _) = e.run_delta(FrameHeader { floats: 3, ..h(11, FLAG_DELTA_SCALED) }, &good, None);
         assert_eq!(r.status(), Some(Status::BadLength));
     }
 }

@@ -6,7 +6,7 @@ use lumen_client::{Client, Observed};
 use lumen_detect::Detector;
 use lumen_e2e::{free_port, same_bits, unique_prefix, Daemon, TestScene};
 use lumen_proto::auth::Secret;
-use lumen_proto::wire::{encode_frame, FrameHeader, Status, FLAG_DELTA, FLAG_KEEP, FRAME_HEADER_BYTES};
+use lumen_proto::wire::{encode_frame, FrameHeader, Status, FLAG_DELTA, FLAG_KEEP, FLAG_SCALED, FRAME_HEADER_BYTES};
 use lumen_transport::delta::Encoder;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -155,7 +155,7 @@ fn deltas_against_unknown_bases_and_damaged_deltas_get_their_status_and_change_n
     };
     let (s2, s3, s4) = (scene.state(2), scene.state(3), scene.state(4));
     // The client's frames were kept by the client's own deltas; a base numbered 5 never was.
-    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &delta(&mut enc, 5, &s2, &s3));
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED | FLAG_KEEP, &delta(&mut enc, 5, &s2, &s3));
     expect(&mut session, n, Status::NoBase, "delta against frame 5; the session's base is frame 1");
     // A raw whole frame kept: the base.
     let base = raw.whole(FLAG_KEEP, &s2);
@@ -163,27 +163,30 @@ fn deltas_against_unknown_bases_and_damaged_deltas_get_their_status_and_change_n
     assert!(same_bits(&got, reference.detect(&s2).unwrap()));
     // Cut short, corrupted, a wrong count: refused, the base as it was.
     let good = delta(&mut enc, base, &s2, &s3);
-    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &good[..good.len() - 5]);
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED | FLAG_KEEP, &good[..good.len() - 5]);
     expect(&mut session, n, Status::BadDelta, "coded bytes but");
     let mut junk = good.clone();
     for b in &mut junk[16..] {
         *b = b.wrapping_mul(31).wrapping_add(7);
     }
-    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &junk);
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED | FLAG_KEEP, &junk);
     expect(&mut session, n, Status::BadDelta, "zstd");
-    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &good[..7]);
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED | FLAG_KEEP, &good[..7]);
     expect(&mut session, n, Status::BadDelta, "shorter than its 16-byte delta header");
-    let n = raw.send(FLAG_DELTA, &good);
+    // A scaled delta flagged as a plain one: its rows are not the size a plain delta's are.
+    let n = raw.send(FLAG_DELTA | FLAG_KEEP, &good);
+    expect(&mut session, n, Status::BadDelta, "decompress");
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED, &good);
     let got = expect(&mut session, n, Status::Ok, "");
     assert!(same_bits(&got, reference.detect(&s3).unwrap()));
     // Not kept: the next delta is still against the raw base, and kept it replaces the base.
-    let kept = raw.send(FLAG_DELTA | FLAG_KEEP, &delta(&mut enc, base, &s2, &s4));
+    let kept = raw.send(FLAG_DELTA | FLAG_SCALED | FLAG_KEEP, &delta(&mut enc, base, &s2, &s4));
     let got = expect(&mut session, kept, Status::Ok, "");
     assert!(same_bits(&got, reference.detect(&s4).unwrap()));
     // A delta against the replaced base: refused, naming the base held.
-    let n = raw.send(FLAG_DELTA, &delta(&mut enc, base, &s2, &s3));
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED, &delta(&mut enc, base, &s2, &s3));
     expect(&mut session, n, Status::NoBase, &format!("the session's base is frame {kept}"));
-    let n = raw.send(FLAG_DELTA, &delta(&mut enc, kept, &s4, &s3));
+    let n = raw.send(FLAG_DELTA | FLAG_SCALED, &delta(&mut enc, kept, &s4, &s3));
     let got = expect(&mut session, n, Status::Ok, "");
     assert!(same_bits(&got, reference.detect(&s3).unwrap()));
 }
@@ -301,7 +304,7 @@ fn deltas_over_iceoryx2_are_answered_as_whole_frames() {
         bytes.resize(bytes.len().div_ceil(4) * 4, 0);
         let payload: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         assert!(payload.len() < floats / 4, "a delta of {} floats for a frame of {floats}", payload.len());
-        send(header(k, FLAG_DELTA | FLAG_KEEP), &payload);
+        send(header(k, enc.rows().flags() | FLAG_KEEP), &payload);
         let (h, got) = reply(k);
         assert_eq!(h.status, 0, "frame {k}: {}", h.message());
         let want = Detector::new(&scene.spec.validate().unwrap()).detect(&scene.state(k)).unwrap().to_vec();

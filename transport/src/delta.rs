@@ -5,25 +5,75 @@
 //! against a base holds:
 //! - a bitmap, one bit per row (bit `r % 8` of byte `r / 8`): the rows whose floats differ
 //!   from the base's, bit for bit;
-//! - for each float of those rows, in order, the difference of its bits from the base's,
-//!   `d = new - base (mod 2^32)`, zigzag coded, `z = (d << 1) ^ (d >> 31)` (arithmetic shift):
-//!   a float that moved a little differs in its low mantissa bits, so `z` is a small number
-//!   whichever way it moved;
-//! - those `z` split into four byte planes (every low byte, then every second byte, ...): the
-//!   high planes are nearly all zero and compress to almost nothing.
+//! - in a scaled delta ([`Rows::Scaled`]), for each changed row a scale `s`, a float coded as
+//!   the difference of its bits from those of 1.0: the row is predicted as the base's row times
+//!   `s` (a plain delta predicts the base's row itself);
+//! - for each float of those rows, in order, the difference of its bits from the prediction's,
+//!   `d = new - predicted (mod 2^32)`, zigzag coded, `z = (d << 1) ^ (d >> 31)` (arithmetic
+//!   shift): a float that moved a little differs in its low mantissa bits, so `z` is a small
+//!   number whichever way it moved;
+//! - those numbers split into four byte planes (every low byte, then every second byte, ...):
+//!   the high planes are nearly all zero and compress to almost nothing.
 //!
-//! The bitmap and the planes are one zstd frame ([`LEVEL`]). Decoding reverses each step exactly,
-//! so the state rebuilt is the client's bit for bit. zstd over a general-purpose byte coder of
-//! our own: it is standard (every language has it), fast, and its worst case on hostile input is
-//! bounded by the output buffer we give it.
+//! Why the scale: a wall that gives moves each tip along its own spoke, so a radial vector's
+//! three floats change together by one factor. Coded against the base they cost about 13 bits
+//! each; coded as the factor and three residuals of a rounding or two they cost about half
+//! (the demo's colonoscopies, `docs/measurements.md`). The encoder takes the scale only where it
+//! is cheaper (else 1.0, which predicts the base's row exactly), so rows that move otherwise
+//! (rod points, control points) lose nothing.
+//!
+//! The bitmap, the scales' planes and the floats' planes are one zstd frame ([`LEVEL`]).
+//! Decoding reverses each step exactly (the prediction is one IEEE-754 single multiplication,
+//! the same in every language), so the state rebuilt is the client's bit for bit. zstd over a
+//! general-purpose byte coder of our own: it is standard (every language has it), fast, and its
+//! worst case on hostile input is bounded by the output buffer we give it.
 
-use lumen_proto::wire::{DeltaHeader, DELTA_HEADER_BYTES};
+use lumen_proto::wire::{DeltaHeader, FrameHeader, DELTA_HEADER_BYTES, FLAG_DELTA, FLAG_SCALED};
 use std::fmt;
 
 /// The zstd level deltas are written at: -1, zstd's first fast level. On `lumen demo`'s
 /// colonoscopy it wrote 5% more bytes than level 1 in three quarters of the time, and decoded
 /// in 70% of it (`docs/measurements.md`).
 pub const LEVEL: i32 = -1;
+
+/// How a delta's changed rows are coded, as the frame's flags say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rows {
+    /// Flag delta alone: each row's floats against the base's.
+    Plain,
+    /// Flags delta and scaled: a scale a row, then its floats against the base's row times it.
+    Scaled,
+}
+
+impl Rows {
+    /// The coding a delta frame's header announces.
+    pub fn of(header: &FrameHeader) -> Self {
+        if header.flags & FLAG_SCALED != 0 {
+            Rows::Scaled
+        } else {
+            Rows::Plain
+        }
+    }
+
+    /// The frame flags of a delta coded this way (keep not included).
+    pub fn flags(self) -> u16 {
+        match self {
+            Rows::Plain => FLAG_DELTA,
+            Rows::Scaled => FLAG_DELTA | FLAG_SCALED,
+        }
+    }
+
+    /// Coded numbers a changed row takes: its scale, if any, and its three floats.
+    fn per_row(self) -> usize {
+        match self {
+            Rows::Plain => 3,
+            Rows::Scaled => 4,
+        }
+    }
+}
+
+/// The bits of 1.0, which a scale is coded against (a scale of 1.0 codes as 0).
+const ONE: u32 = 0x3f80_0000;
 
 /// Why a delta could not be made or read.
 #[derive(Debug)]
@@ -43,6 +93,8 @@ pub enum DeltaError {
     /// The bitmap's set bits are not the announced changed rows, or mark rows past the state's
     /// `rows`.
     Bitmap { changed: u32, set: usize, rows: usize },
+    /// A scaled delta's scale for its `index`-th changed row is not a finite float.
+    Scale { index: usize, bits: u32 },
 }
 
 impl fmt::Display for DeltaError {
@@ -55,6 +107,7 @@ impl fmt::Display for DeltaError {
             DeltaError::Zstd(e) => write!(f, "delta's zstd frame does not decompress: {e}"),
             DeltaError::Size { expected, got } => write!(f, "delta decompressed to {got} bytes; its bitmap and rows need {expected}"),
             DeltaError::Bitmap { changed, set, rows } => write!(f, "delta's bitmap marks {set} rows; its header announces {changed}, all among the state's {rows}"),
+            DeltaError::Scale { index, bits } => write!(f, "delta's scale of changed row {index} is not finite (bits {bits:#010x})"),
         }
     }
 }
@@ -84,9 +137,10 @@ fn unzigzag(z: u32) -> u32 {
     (z >> 1) ^ 0u32.wrapping_sub(z & 1)
 }
 
-/// Reads the `count` zigzag-coded differences out of their four byte planes into `zs`, one
-/// pass that vectorises.
+/// Reads the `count` zigzag-coded numbers out of their four byte planes into `zs`, one pass
+/// that vectorises.
 fn unplane(planes: &[u8], count: usize, zs: &mut Vec<u32>) {
+    let planes = &planes[..4 * count];
     let (low, rest) = planes.split_at(count);
     let (second, rest) = rest.split_at(count);
     let (third, high) = rest.split_at(count);
@@ -94,20 +148,78 @@ fn unplane(planes: &[u8], count: usize, zs: &mut Vec<u32>) {
     zs.extend(low.iter().zip(second).zip(third).zip(high).map(|(((a, b), c), d)| u32::from_le_bytes([*a, *b, *c, *d])));
 }
 
-/// Adds the zigzag-coded differences `zs`, three per row the bitmap `map` marks, to `state`,
-/// saving what it overwrites in `undo` when given.
-fn apply(map: &[u8], zs: &[u32], state: &mut [f32], mut undo: Option<&mut Vec<u32>>) {
+/// Writes `zs` into four byte planes appended to `out`.
+fn plane(zs: &[u32], out: &mut Vec<u8>) {
+    out.reserve(4 * zs.len());
+    for shift in [0, 8, 16, 24] {
+        out.extend(zs.iter().map(|z| (z >> shift) as u8));
+    }
+}
+
+/// The scale a coded number `z` stands for: the float whose bits differ from 1.0's by `z`'s
+/// difference.
+fn scale_of(z: u32) -> f32 {
+    f32::from_bits(ONE.wrapping_add(unzigzag(z)))
+}
+
+/// Rebuilds, in `state`, each row the bitmap `map` marks: its prediction (the row itself, or
+/// times its scale from `scales` when given and not 1.0) plus the zigzag-coded differences
+/// `zs`, three a row; saves what it overwrites in `undo` when given.
+fn apply(map: &[u8], scales: Option<&[u32]>, zs: &[u32], state: &mut [f32], mut undo: Option<&mut Vec<u32>>) {
     let state = bits_mut(state);
-    let mut zs = zs.chunks_exact(3);
-    for r in marked_rows(map) {
-        let (row, z) = (&mut state[3 * r..3 * r + 3], zs.next().expect("three zs per marked row"));
+    for (j, r) in marked_rows(map).enumerate() {
+        let row = &mut state[3 * r..3 * r + 3];
         if let Some(u) = undo.as_deref_mut() {
             u.extend_from_slice(row);
         }
-        for (v, z) in row.iter_mut().zip(z) {
-            *v = v.wrapping_add(unzigzag(*z));
-        }
+        let p = match scales.map(|s| s[j]).filter(|z| *z != 0) {
+            Some(z) => scaled_row(row, z),
+            None => [row[0], row[1], row[2]],
+        };
+        let z = &zs[3 * j..3 * j + 3];
+        row[0] = p[0].wrapping_add(unzigzag(z[0]));
+        row[1] = p[1].wrapping_add(unzigzag(z[1]));
+        row[2] = p[2].wrapping_add(unzigzag(z[2]));
     }
+}
+
+/// The bits of `row` times the scale coded `z`.
+#[inline(always)]
+fn scaled_row(row: &[u32], z: u32) -> [u32; 3] {
+    let s = scale_of(z);
+    let times = |v: u32| (f32::from_bits(v) * s).to_bits();
+    [times(row[0]), times(row[1]), times(row[2])]
+}
+
+/// Bits a coded number needs, the encoder's measure of what a row costs.
+#[inline(always)]
+fn bits_of(z: u32) -> u32 {
+    32 - z.leading_zeros()
+}
+
+/// How to code the changed row `new` against `base`: its scale's code (0 for none) and its
+/// residuals. The scale is the ratio of the row's largest float to the base's, in single
+/// precision: a row that only lengthens or shortens then misses by a rounding or two in each
+/// float. It is taken where it is finite and the row codes in fewer bits with it (three times
+/// the widest residual, plus the scale's) than without.
+#[inline(always)]
+fn code_row(b: &[u32], n: &[u32], scaled: bool) -> (u32, [u32; 3]) {
+    let plain = [zigzag(n[0].wrapping_sub(b[0])), zigzag(n[1].wrapping_sub(b[1])), zigzag(n[2].wrapping_sub(b[2]))];
+    if !scaled {
+        return (0, plain);
+    }
+    // The largest magnitude: the bits without the sign compare as the magnitudes do.
+    let m = [b[0] & 0x7fff_ffff, b[1] & 0x7fff_ffff, b[2] & 0x7fff_ffff];
+    let k01 = if m[1] > m[0] { 1 } else { 0 };
+    let k = if m[2] > m[k01] { 2 } else { k01 };
+    let s = f32::from_bits(n[k]) / f32::from_bits(b[k]);
+    let z = zigzag(s.to_bits().wrapping_sub(ONE));
+    let times = |v: u32| (f32::from_bits(v) * s).to_bits();
+    let r = [zigzag(n[0].wrapping_sub(times(b[0]))), zigzag(n[1].wrapping_sub(times(b[1]))), zigzag(n[2].wrapping_sub(times(b[2])))];
+    // Selected by a mask, not a branch: the choice flips from row to row.
+    let take = s.is_finite() & (z != 0) & (bits_of(z) + 3 * bits_of(r[0] | r[1] | r[2]) < 3 * bits_of(plain[0] | plain[1] | plain[2]));
+    let mask = 0u32.wrapping_sub(take as u32);
+    (z & mask, [(r[0] & mask) | (plain[0] & !mask), (r[1] & mask) | (plain[1] & !mask), (r[2] & mask) | (plain[2] & !mask)])
 }
 
 /// Whether two runs of float bits differ anywhere: one pass of XOR and OR, which vectorises,
@@ -133,14 +245,28 @@ fn marked_rows(map: &[u8]) -> impl Iterator<Item = usize> + '_ {
 /// Writes deltas; keeps its buffers and zstd context from one frame to the next.
 pub struct Encoder {
     compressor: zstd::bulk::Compressor<'static>,
+    rows: Rows,
+    scales: Vec<u32>,
     zs: Vec<u32>,
     raw: Vec<u8>,
+    packed: Vec<u8>,
 }
 
 impl Encoder {
-    /// An encoder at [`LEVEL`].
+    /// An encoder of scaled deltas ([`Rows::Scaled`]) at [`LEVEL`].
     pub fn new() -> Result<Self, DeltaError> {
-        Ok(Self { compressor: zstd::bulk::Compressor::new(LEVEL).map_err(DeltaError::Zstd)?, zs: Vec::new(), raw: Vec::new() })
+        Self::with_rows(Rows::Scaled)
+    }
+
+    /// An encoder of deltas coded as `rows` says, at [`LEVEL`].
+    pub fn with_rows(rows: Rows) -> Result<Self, DeltaError> {
+        let compressor = zstd::bulk::Compressor::new(LEVEL).map_err(DeltaError::Zstd)?;
+        Ok(Self { compressor, rows, scales: Vec::new(), zs: Vec::new(), raw: Vec::new(), packed: Vec::new() })
+    }
+
+    /// How this encoder codes rows; its frames carry `rows().flags()`.
+    pub fn rows(&self) -> Rows {
+        self.rows
     }
 
     /// Appends to `out` the delta of `state` against `base` (the state of frame `base_frame`):
@@ -153,7 +279,9 @@ impl Encoder {
         let bitmap = bitmap_bytes(rows);
         self.raw.clear();
         self.raw.resize(bitmap, 0);
+        self.scales.clear();
         self.zs.clear();
+        let scaled = self.rows == Rows::Scaled;
         // Eight rows (one bitmap byte) at a time: most are unchanged.
         let (new, old) = (bits(state), bits(base));
         for (byte_at, (n8, o8)) in new.chunks(24).zip(old.chunks(24)).enumerate() {
@@ -164,32 +292,32 @@ impl Encoder {
             for (r, (n, o)) in n8.chunks_exact(3).zip(o8.chunks_exact(3)).enumerate() {
                 if n != o {
                     mark |= 1 << r;
-                    self.zs.extend([zigzag(n[0].wrapping_sub(o[0])), zigzag(n[1].wrapping_sub(o[1])), zigzag(n[2].wrapping_sub(o[2]))]);
+                    let (z, r) = code_row(o, n, scaled);
+                    if scaled {
+                        self.scales.push(z);
+                    }
+                    self.zs.extend(r);
                 }
             }
             self.raw[byte_at] = mark;
         }
-        let count = self.zs.len();
-        self.raw.resize(bitmap + 4 * count, 0);
-        let (low, rest) = self.raw[bitmap..].split_at_mut(count);
-        let (second, rest) = rest.split_at_mut(count);
-        let (third, high) = rest.split_at_mut(count);
-        for ((((z, a), b), c), d) in self.zs.iter().zip(low).zip(second).zip(third).zip(high) {
-            [*a, *b, *c, *d] = z.to_le_bytes();
-        }
-        let at = out.len();
-        out.resize(at + DELTA_HEADER_BYTES + zstd::zstd_safe::compress_bound(self.raw.len()), 0);
-        let encoded = self.compressor.compress_to_buffer(&self.raw, &mut out[at + DELTA_HEADER_BYTES..]).map_err(DeltaError::Zstd)?;
-        out.truncate(at + DELTA_HEADER_BYTES + encoded);
-        let header = DeltaHeader { base: base_frame, changed: (count / 3) as u32, encoded: encoded as u32 };
-        out[at..at + DELTA_HEADER_BYTES].copy_from_slice(&header.to_bytes());
+        plane(&self.scales, &mut self.raw);
+        plane(&self.zs, &mut self.raw);
+        // Into a buffer of its own (zstd fills its spare capacity), not a zeroed tail of `out`.
+        self.packed.clear();
+        self.packed.reserve(zstd::zstd_safe::compress_bound(self.raw.len()));
+        let encoded = self.compressor.compress_to_buffer(&self.raw, &mut self.packed).map_err(DeltaError::Zstd)?;
+        let header = DeltaHeader { base: base_frame, changed: (self.zs.len() / 3) as u32, encoded: encoded as u32 };
+        out.extend_from_slice(&header.to_bytes());
+        out.extend_from_slice(&self.packed);
         Ok(header)
     }
 
     /// Turns `base`, the base of the last [`Encoder::encode`], into the state it encoded: a
     /// client's copy of the daemon's base follows a kept delta without copying the whole state.
     pub fn apply_last(&self, base: &mut [f32]) {
-        apply(&self.raw[..bitmap_bytes(base.len() / 3)], &self.zs, base, None);
+        let scales = (self.rows == Rows::Scaled).then_some(&self.scales[..]);
+        apply(&self.raw[..bitmap_bytes(base.len() / 3)], scales, &self.zs, base, None);
     }
 }
 
@@ -198,6 +326,8 @@ impl Encoder {
 pub struct Decoder {
     decompressor: zstd::bulk::Decompressor<'static>,
     raw: Vec<u8>,
+    coding: Rows,
+    scales: Vec<u32>,
     zs: Vec<u32>,
     rows: usize,
     count: usize,
@@ -207,13 +337,23 @@ pub struct Decoder {
 impl Decoder {
     /// A decoder with empty buffers.
     pub fn new() -> Result<Self, DeltaError> {
-        Ok(Self { decompressor: zstd::bulk::Decompressor::new().map_err(DeltaError::Zstd)?, raw: Vec::new(), zs: Vec::new(), rows: 0, count: 0, undo: Vec::new() })
+        Ok(Self {
+            decompressor: zstd::bulk::Decompressor::new().map_err(DeltaError::Zstd)?,
+            raw: Vec::new(),
+            coding: Rows::Plain,
+            scales: Vec::new(),
+            zs: Vec::new(),
+            rows: 0,
+            count: 0,
+            undo: Vec::new(),
+        })
     }
 
     /// Reads the delta `body` (everything after the frame header; up to 3 bytes of padding
-    /// after the zstd frame are ignored, as iceoryx2 carries whole floats) for a state of
-    /// `floats` floats, checking every count. Nothing is applied yet.
-    pub fn read(&mut self, body: &[u8], floats: usize) -> Result<DeltaHeader, DeltaError> {
+    /// after the zstd frame are ignored, as iceoryx2 carries whole floats), its rows coded as
+    /// `coding` says, for a state of `floats` floats, checking every count and scale. Nothing is
+    /// applied yet.
+    pub fn read(&mut self, body: &[u8], floats: usize, coding: Rows) -> Result<DeltaHeader, DeltaError> {
         self.count = 0;
         let header = DeltaHeader::read(body).ok_or(DeltaError::TooShort { got: body.len() })?;
         let coded = &body[DELTA_HEADER_BYTES..];
@@ -226,11 +366,12 @@ impl Decoder {
             return Err(DeltaError::Rows { changed: header.changed, rows });
         }
         let bitmap = bitmap_bytes(rows);
-        let expected = bitmap + 12 * header.changed as usize;
+        let expected = bitmap + 4 * coding.per_row() * header.changed as usize;
         self.raw.clear();
-        self.raw.resize(expected, 0);
-        // A frame that would decompress past `expected` fails here, within the buffer.
-        let got = self.decompressor.decompress_to_buffer(&coded[..encoded], &mut self.raw[..]).map_err(DeltaError::Zstd)?;
+        self.raw.reserve_exact(expected);
+        // zstd fills the spare capacity: a frame that would decompress past it fails here,
+        // within the buffer, and one that stops elsewhere than `expected` fails below.
+        let got = self.decompressor.decompress_to_buffer(&coded[..encoded], &mut self.raw).map_err(DeltaError::Zstd)?;
         if got != expected {
             return Err(DeltaError::Size { expected, got });
         }
@@ -241,7 +382,15 @@ impl Decoder {
         if set != header.changed as usize || past_end {
             return Err(DeltaError::Bitmap { changed: header.changed, set, rows });
         }
+        self.scales.clear();
+        if coding == Rows::Scaled {
+            unplane(&self.raw[bitmap..], header.changed as usize, &mut self.scales);
+            if let Some((index, z)) = self.scales.iter().enumerate().find(|(_, z)| !scale_of(**z).is_finite()) {
+                return Err(DeltaError::Scale { index, bits: scale_of(*z).to_bits() });
+            }
+        }
         self.rows = rows;
+        self.coding = coding;
         self.count = 3 * header.changed as usize;
         Ok(header)
     }
@@ -253,8 +402,12 @@ impl Decoder {
         self.undo.clear();
         self.undo.reserve(self.count);
         let bitmap = bitmap_bytes(self.rows);
-        unplane(&self.raw[bitmap..], self.count, &mut self.zs);
-        apply(&self.raw[..bitmap], &self.zs, state, Some(&mut self.undo));
+        let (scales, at) = match self.coding {
+            Rows::Plain => (None, bitmap),
+            Rows::Scaled => (Some(&self.scales[..]), bitmap + 4 * self.scales.len()),
+        };
+        unplane(&self.raw[at..], self.count, &mut self.zs);
+        apply(&self.raw[..bitmap], scales, &self.zs, state, Some(&mut self.undo));
     }
 
     /// Puts back in `state` what the last [`Decoder::apply`] overwrote.
@@ -293,7 +446,7 @@ mod tests {
         let h = Encoder::new().unwrap().encode(7, &base, &new, &mut out).unwrap();
         assert_eq!((h.base, h.changed, out.len()), (7, 4, 1 + DELTA_HEADER_BYTES + h.encoded as usize));
         let mut d = Decoder::new().unwrap();
-        assert_eq!(d.read(&out[1..], 300).unwrap(), h);
+        assert_eq!(d.read(&out[1..], 300, Rows::Scaled).unwrap(), h);
         let mut state = base.clone();
         d.apply(&mut state);
         assert!(state.iter().zip(&new).all(|(a, b)| a.to_bits() == b.to_bits()));
@@ -306,10 +459,10 @@ mod tests {
         // Padding to whole floats is ignored; an unchanged state is a delta of no rows.
         let mut padded = out[1..].to_vec();
         padded.extend([0, 0, 0]);
-        assert_eq!(d.read(&padded, 300).unwrap(), h);
+        assert_eq!(d.read(&padded, 300, Rows::Scaled).unwrap(), h);
         let mut same = Vec::new();
         assert_eq!(Encoder::new().unwrap().encode(1, &base, &base, &mut same).unwrap().changed, 0);
-        assert_eq!(d.read(&same, 300).unwrap().changed, 0);
+        assert_eq!(d.read(&same, 300, Rows::Scaled).unwrap().changed, 0);
     }
 
     #[test]
@@ -318,27 +471,27 @@ mod tests {
         let mut good = Vec::new();
         let h = Encoder::new().unwrap().encode(7, &base, &new, &mut good).unwrap();
         let mut d = Decoder::new().unwrap();
-        assert!(matches!(d.read(&good[..10], 300), Err(DeltaError::TooShort { got: 10 })));
-        assert!(matches!(d.read(&good[..good.len() - 1], 300), Err(DeltaError::Length { .. })));
+        assert!(matches!(d.read(&good[..10], 300, Rows::Scaled), Err(DeltaError::TooShort { got: 10 })));
+        assert!(matches!(d.read(&good[..good.len() - 1], 300, Rows::Scaled), Err(DeltaError::Length { .. })));
         let mut long = good.clone();
         long.extend([0; 4]);
-        assert!(matches!(d.read(&long, 300), Err(DeltaError::Length { .. })));
+        assert!(matches!(d.read(&long, 300, Rows::Scaled), Err(DeltaError::Length { .. })));
         let too_many = DeltaHeader { changed: 101, ..h };
         let mut bad = good.clone();
         bad[..16].copy_from_slice(&too_many.to_bytes());
-        assert!(matches!(d.read(&bad, 300), Err(DeltaError::Rows { changed: 101, rows: 100 })));
+        assert!(matches!(d.read(&bad, 300, Rows::Scaled), Err(DeltaError::Rows { changed: 101, rows: 100 })));
         // One more row announced than coded: the frame decompresses short of it.
         bad[..16].copy_from_slice(&DeltaHeader { changed: 5, ..h }.to_bytes());
-        assert!(matches!(d.read(&bad, 300), Err(DeltaError::Size { .. }) | Err(DeltaError::Zstd(_))));
+        assert!(matches!(d.read(&bad, 300, Rows::Scaled), Err(DeltaError::Size { .. }) | Err(DeltaError::Zstd(_))));
         // Fewer announced than coded: more bytes than the buffer holds.
         bad[..16].copy_from_slice(&DeltaHeader { changed: 3, ..h }.to_bytes());
-        assert!(d.read(&bad, 300).is_err());
+        assert!(d.read(&bad, 300, Rows::Scaled).is_err());
         // Garbage where the zstd frame was.
         let mut junk = good.clone();
         for b in &mut junk[16..] {
             *b ^= 0x5A;
         }
-        assert!(matches!(d.read(&junk, 300), Err(DeltaError::Zstd(_))));
+        assert!(matches!(d.read(&junk, 300, Rows::Scaled), Err(DeltaError::Zstd(_))));
         // A bitmap that disagrees with its count: recoded by hand.
         let mut raw = vec![0u8; 13];
         raw[0] = 0b11;
@@ -346,7 +499,7 @@ mod tests {
         let z = zstd::bulk::compress(&raw, 1).unwrap();
         let mut lie = DeltaHeader { base: 7, changed: 1, encoded: z.len() as u32 }.to_bytes().to_vec();
         lie.extend(&z);
-        assert!(matches!(d.read(&lie, 300), Err(DeltaError::Bitmap { changed: 1, set: 2, rows: 100 })));
+        assert!(matches!(d.read(&lie, 300, Rows::Plain), Err(DeltaError::Bitmap { changed: 1, set: 2, rows: 100 })));
         // A row past the end of a state of 98 rows (bits 98, 99 of the last byte).
         let mut raw = vec![0u8; 13];
         raw[12] = 0b100;
@@ -354,7 +507,84 @@ mod tests {
         let z = zstd::bulk::compress(&raw, 1).unwrap();
         let mut past = DeltaHeader { base: 7, changed: 1, encoded: z.len() as u32 }.to_bytes().to_vec();
         past.extend(&z);
-        assert!(matches!(d.read(&past, 294), Err(DeltaError::Bitmap { changed: 1, set: 1, rows: 98 })));
+        assert!(matches!(d.read(&past, 294, Rows::Plain), Err(DeltaError::Bitmap { changed: 1, set: 1, rows: 98 })));
         assert!(matches!(Encoder::new().unwrap().encode(0, &base, &new[..299], &mut Vec::new()), Err(DeltaError::Shape { .. })));
+    }
+
+    /// Radial vectors of a wall that gives: every row lengthens or shortens by its own factor.
+    fn lengthened(rows: usize) -> (Vec<f32>, Vec<f32>) {
+        let base: Vec<f32> = (0..3 * rows).map(|i| 12.0 + (i as f32 * 0.71).sin() * 9.0).collect();
+        let new = base.chunks(3).enumerate().flat_map(|(r, v)| {
+            let f = 1.0 + 3e-4 * ((r as f64) * 0.13 + 0.5).sin();
+            v.iter().map(move |x| (*x as f64 * f) as f32)
+        });
+        let new: Vec<f32> = new.collect();
+        (base, new)
+    }
+
+    fn rebuilt(coding: Rows, base: &[f32], new: &[f32]) -> usize {
+        let mut out = Vec::new();
+        let h = Encoder::with_rows(coding).unwrap().encode(1, base, new, &mut out).unwrap();
+        let mut d = Decoder::new().unwrap();
+        d.read(&out, base.len(), coding).unwrap();
+        let mut state = base.to_vec();
+        d.apply(&mut state);
+        assert!(state.iter().zip(new).all(|(a, b)| a.to_bits() == b.to_bits()), "{coding:?}");
+        assert_eq!(h.changed as usize, base.len() / 3);
+        out.len()
+    }
+
+    #[test]
+    fn a_row_that_only_lengthens_costs_its_scale_and_a_rounding() {
+        let (base, new) = lengthened(4000);
+        let (plain, scaled) = (rebuilt(Rows::Plain, &base, &new), rebuilt(Rows::Scaled, &base, &new));
+        assert!(10 * scaled < 7 * plain, "scaled {scaled} bytes, plain {plain}");
+        // Rows that move every which way (rod points) keep the plain coding, at a scale of 1.0
+        // each that zstd all but erases.
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut noise = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        };
+        let moved: Vec<f32> = base.iter().map(|x| x + 1e-2 * noise()).collect();
+        let (plain, scaled) = (rebuilt(Rows::Plain, &base, &moved), rebuilt(Rows::Scaled, &base, &moved));
+        assert!(scaled <= plain + plain / 50, "scaled {scaled} bytes, plain {plain}");
+    }
+
+    #[test]
+    fn a_row_without_a_scale_beside_one_with_a_scale() {
+        // Row 0 moves on its own (scale code 0, its base's floats predict it), row 1 doubles
+        // (scale 2.0, its differences are zeros).
+        let (base, new) = ([1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0], [1.5f32, 2.0, 3.0, 8.0, 10.0, 12.0]);
+        let mut raw = vec![0b11u8];
+        plane(&[0, zigzag(2f32.to_bits().wrapping_sub(ONE))], &mut raw);
+        plane(&[zigzag(1.5f32.to_bits().wrapping_sub(1f32.to_bits())), 0, 0, 0, 0, 0], &mut raw);
+        let z = zstd::bulk::compress(&raw, 1).unwrap();
+        let mut delta = DeltaHeader { base: 1, changed: 2, encoded: z.len() as u32 }.to_bytes().to_vec();
+        delta.extend(&z);
+        let mut d = Decoder::new().unwrap();
+        d.read(&delta, 6, Rows::Scaled).unwrap();
+        let mut state = base;
+        d.apply(&mut state);
+        assert_eq!(state, new);
+        // This encoder writes the same bytes.
+        let mut out = Vec::new();
+        Encoder::new().unwrap().encode(1, &base, &new, &mut out).unwrap();
+        assert_eq!(zstd::bulk::decompress(&out[DELTA_HEADER_BYTES..], 64).unwrap(), raw);
+    }
+
+    #[test]
+    fn a_scale_that_is_not_finite_is_refused() {
+        // One changed row of 3: its scale codes infinity.
+        let mut raw = vec![0b1u8];
+        plane(&[zigzag(f32::INFINITY.to_bits().wrapping_sub(ONE))], &mut raw);
+        plane(&[0, 0, 0], &mut raw);
+        let z = zstd::bulk::compress(&raw, 1).unwrap();
+        let mut delta = DeltaHeader { base: 7, changed: 1, encoded: z.len() as u32 }.to_bytes().to_vec();
+        delta.extend(&z);
+        let mut d = Decoder::new().unwrap();
+        assert!(matches!(d.read(&delta, 9, Rows::Scaled), Err(DeltaError::Scale { index: 0, bits: 0x7f80_0000 })));
+        // The same bytes read as a plain delta are the wrong size.
+        assert!(matches!(d.read(&delta, 9, Rows::Plain), Err(DeltaError::Size { .. }) | Err(DeltaError::Zstd(_))));
     }
 }

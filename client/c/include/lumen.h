@@ -94,9 +94,17 @@
 #define LUMEN_FLAG_KEEP 2
 
 /**
- * The frame flags version 1 defines; any other bit is refused as malformed.
+ * `FrameHeader::flags` bit, with [`FLAG_DELTA`] only: each changed row of the delta also
+ * carries a scale, and its floats are coded against the base's row times that scale (a radial
+ * vector that only lengthens or shortens costs its scale and a few bits).
  */
-#define LUMEN_FRAME_FLAGS (LUMEN_FLAG_DELTA | LUMEN_FLAG_KEEP)
+#define FLAG_SCALED 4
+
+/**
+ * The frame flags version 1 defines; any other bit, or [`FLAG_SCALED`] without
+ * [`FLAG_DELTA`], is refused as malformed.
+ */
+#define LUMEN_FRAME_FLAGS ((LUMEN_FLAG_DELTA | LUMEN_FLAG_KEEP) | FLAG_SCALED)
 
 /**
  * Size of [`DeltaHeader`] in bytes (after the frame header of a delta frame).
@@ -485,7 +493,7 @@ typedef struct LumenFrameHeader {
    */
   uint16_t version;
   /**
-   * [`FLAG_DELTA`] and [`FLAG_KEEP`]; other bits are reserved (0).
+   * [`FLAG_DELTA`], [`FLAG_KEEP`] and [`FLAG_SCALED`]; other bits are reserved (0).
    */
   uint16_t flags;
   /**
