@@ -152,7 +152,7 @@ fn malformed_then_answered(tag: &str, edit: impl Fn(&mut lumen_proto::wire::Fram
 
 #[test]
 fn a_frame_with_reserved_flags_is_answered_malformed_and_the_session_goes_on() {
-    malformed_then_answered("pflags", |h| h.flags = 4, |sent| sent, "frame flags are 0x0004; version 1 defines only bit 0 (delta) and bit 1 (keep)");
+    malformed_then_answered("pflags", |h| h.flags = 8, |sent| sent, "frame flags are 0x0008; version 1 defines only bit 0 (delta), bit 1 (keep) and bit 2 (scaled, with delta only)");
 }
 
 #[test]
