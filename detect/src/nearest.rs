@@ -240,8 +240,9 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         spare[3] = probe.box_descents(&from, reach, &mut end);
     } else if reach > 0.0 {
         spare[1] = probe.ring_descent(&from, start, reach, &mut end);
-        if let Search::Across(across) = search {
-            spare[3] = probe.across_descents(across, &mut end);
+        if let Search::Across { own, nearby } = search {
+            spare[3] = probe.across_descents(own, &mut end);
+            spare[4] = probe.across_descents(nearby, &mut end);
         }
     }
     let Some((normal, dist)) = judge(&mut probe, &end) else {
@@ -273,8 +274,10 @@ pub enum Search<'a> {
     /// wall found, and seeds facing it from another direction.
     Ends,
     /// Between the ends: a descent from each wall the point's section sees across the lumen
-    /// ([`crate::around::walls_around`]), whatever its distance ([`Probe::across_descents`]).
-    Across(&'a [Option<Gap>]),
+    /// (`own`, from [`crate::around::walls_around`]) and from each wall the sections of the
+    /// rod's samples about it read other than its own first (`nearby`), whatever their
+    /// distance ([`Probe::across_descents`]).
+    Across { own: &'a [Option<Gap>], nearby: &'a [Option<Gap>] },
 }
 
 /// The wall being searched and the point searched from: what every descent reads.
@@ -553,12 +556,17 @@ impl Probe<'_> {
         displaced
     }
 
-    /// A descent from each wall the point's section sees across the lumen (`across`, from
-    /// [`crate::around::walls_around`]) that faces the point, however far its reading: where the
-    /// lumen is pressed into a slit narrower than the scope, the nearest point of the far wall
-    /// can lie in a patch's middle, nearer than the wall found first while every ring seed there
-    /// is farther (on the GCA colon inflated four times, 5.35 mm against 6.52, no seed within
-    /// 6.52). The nearer end becomes `end`; returns the end it displaced last, if any.
+    /// A descent from each wall in `across` that faces the point, however far its reading:
+    /// the walls the point's section sees across the lumen ([`crate::around::walls_around`]),
+    /// or those the sections of the rod's samples about it read. Where the lumen is pressed
+    /// into a slit narrower than the scope, the nearest point of the far wall can lie in a
+    /// patch's middle, nearer than the wall found first while every ring seed there is farther
+    /// (on the GCA colon inflated four times, 5.35 mm against 6.52, no seed within 6.52); where
+    /// the slit's ceiling runs down along the tube just ahead of a sample, its own section reads
+    /// the ceiling's flat part (a minimum of its own) or nothing, and the ramp's nearest point
+    /// lies between the points its neighbours' sections read on it
+    /// (`hard_slits_with_a_ramp_at_any_angle_ahead_of_or_behind_the_samples`: 0.84 mm nearer
+    /// than the floor). The nearer end becomes `end`; returns the end it displaced last, if any.
     fn across_descents(&mut self, across: &[Option<Gap>], end: &mut End) -> Option<End> {
         let mut displaced = None;
         for g in across.iter().flatten() {
@@ -768,7 +776,7 @@ fn facing_corner(t: &TubeView, cache: &mut TubeCache, p: &V3, side: f32, seg: us
 /// Inserts `item` into `best`, kept in ascending `key` order, where it is below the last: the
 /// last falls out, and an equal key goes after those already kept.
 #[inline]
-fn keep_nearest<T: Copy, K: PartialOrd>(best: &mut [T], item: T, key: impl Fn(&T) -> K) {
+pub(crate) fn keep_nearest<T: Copy, K: PartialOrd>(best: &mut [T], item: T, key: impl Fn(&T) -> K) {
     let Some(last) = best.len().checked_sub(1) else { return };
     let k = key(&item);
     if k.partial_cmp(&key(&best[last])) != Some(std::cmp::Ordering::Less) {

@@ -693,3 +693,62 @@ fn hard_slit_whose_far_wall_runs_down_along_the_tube() {
     }
     assert!(checked >= 8, "only {checked} samples checked");
 }
+
+#[test]
+fn hard_slits_with_a_ramp_at_any_angle_ahead_of_or_behind_the_samples() {
+    // The class of the slit above: a lumen 40 wide, its floor 7 below the midline, its ceiling
+    // flat at `h` above it up to ring 50, then a ramp down at `angle` to 2 above (rings 1 apart,
+    // 32 spokes), the rod (radius 6.5, `z` below the midline) along it either way. Every sample
+    // the ramp overlaps by more than 0.05, its nearest ramp point a ring or more from both kinks
+    // (the spline rounds them), is reported at least that deep less 0.05: also the samples
+    // short of the ramp, whose own section's ceiling is the flat part (a minimum of its own).
+    let (r, x) = (6.5, 4u32);
+    let (mut checked, mut before, mut misses) = (0, 0, Vec::new());
+    for angle in [30.0f32, 45.0, 60.0] {
+        let (sin, cos) = angle.to_radians().sin_cos();
+        for h in [7.5f32, 8.0] {
+            let end = 50.0 + (h - 2.0) * cos / sin;
+            let ceiling = move |i: usize| (h - (i as f32 - 50.0).max(0.0) * sin / cos).max(2.0);
+            let colon = along_x(90, 32, |i, _, (c, s)| {
+                let up = if s > 0.0 {
+                    ceiling(i) / s
+                } else if s < 0.0 {
+                    -7.0 / s
+                } else {
+                    f32::INFINITY
+                };
+                let t = (20.0 / c.abs().max(1e-6)).min(up);
+                (t * c, t * s)
+            });
+            // The ramp: the points with `x sin + z cos = 50 sin + h cos`, the lumen below it.
+            let plane = 50.0 * sin + h * cos;
+            for z in [-0.5f32, 0.0] {
+                for forward in [true, false] {
+                    let (a, b) = if forward { (30.0, 70.0) } else { (70.0, 30.0) };
+                    let mut scene = interior(colon.clone(), line([a, 0.0, z], [b, 0.0, z], 41, r), x, Method::Signed);
+                    scene.margin = 2.0;
+                    let cs = run(&scene);
+                    assert_finite(&cs);
+                    for s in 0..40 * x as usize + 1 {
+                        let px = a + (b - a) * s as f32 / (40 * x) as f32;
+                        let dist = plane - (px * sin + z * cos);
+                        let foot = px + dist * sin;
+                        let want = r - dist;
+                        if foot < 51.0 || foot > end - 1.0 || want < 0.05 {
+                            continue;
+                        }
+                        let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+                        if got < want - 0.05 {
+                            let way = if forward { "forward" } else { "backward" };
+                            misses.push(format!("ramp at {angle} deg, ceiling {h}, rod at z {z} {way}: sample {s} at x {px}: the ramp {dist:.3} away (overlap {want:.3}), reported {got}"));
+                        }
+                        checked += 1;
+                        before += (px <= 50.0) as usize;
+                    }
+                }
+            }
+        }
+    }
+    assert!(misses.is_empty(), "{} of {checked} samples read shallow:\n{}", misses.len(), misses.join("\n"));
+    assert!(checked >= 100 && before >= 10, "only {checked} samples checked, {before} short of the ramp");
+}

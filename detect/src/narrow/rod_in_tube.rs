@@ -2,16 +2,19 @@
 //! ([`crate::broad::track`]), then read in its own cross-section ([`TubeCache::gap`]), or moved
 //! to the nearest point of the continuous wall with the scene's `nearest` ([`crate::nearest`]).
 //! A sample outside the wall is a contact with positive depth however far out it is, and its
-//! normal is the wall's.
+//! normal is the wall's. Every sample's section is read first, then each sample's nearest wall
+//! is sought, also from the walls its neighbours' sections read: a wall ahead of a sample along
+//! the tube (a slit's ceiling running down) is often read by the next samples' sections only.
 
 use super::{Emit, SignedParams, NEAREST_REACH};
 use crate::around::{merge, walls_around};
 use crate::broad::track::{Track, Walk};
 use crate::broad::{Counters, TubeFrame};
-use crate::nearest::{nearest, Search, MAX_OTHERS};
+use crate::nearest::{keep_nearest, nearest, Search, MAX_OTHERS, OTHER_ANGLE_DEG};
 use crate::samples::RodSamples;
 use crate::section::{Gap, Reading, TubeCache};
 use crate::view::TubeView;
+use crate::V3;
 use lumen_proto::contact::FLAG_OTHER_WALL;
 use lumen_proto::Contact;
 
@@ -22,12 +25,20 @@ pub struct RodInTube {
     pub tube: usize,
     /// One per rod sample: where its walk starts next frame.
     tracks: Vec<Track>,
+    /// One per rod sample, this frame: its section's walls, where it is not clear.
+    read: Vec<Option<Walls>>,
 }
+
+/// A sample's section walls: its first reading and the walls it sees across the lumen.
+type Walls = (Gap, [Option<Gap>; MAX_OTHERS]);
+
+/// Wall points of the neighbouring samples' sections a sample descends from at most.
+const NEARBY: usize = 2;
 
 impl RodInTube {
     /// The job for rod slot `rod` inside tube slot `tube`, without history.
     pub fn new(rod: usize, tube: usize) -> Self {
-        Self { rod, tube, tracks: Vec::new() }
+        Self { rod, tube, tracks: Vec::new(), read: Vec::new() }
     }
 
     /// Forgets every sample's track: the next frame locates each through the BVH.
@@ -42,12 +53,17 @@ impl RodInTube {
             self.tracks.clear();
             self.tracks.resize(rod.len(), Track::default());
         }
-        interior(tube, rod, &mut self.tracks, params, emit, out, counters);
+        self.read.clear();
+        self.read.resize(rod.len(), None);
+        interior(tube, rod, &mut self.tracks, &mut self.read, params, emit, out, counters);
     }
 }
 
-/// Interior contacts of one rod inside one tube.
-pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], params: SignedParams, emit: &Emit, out: &mut Vec<Contact>, counters: &mut Counters) {
+/// Interior contacts of one rod inside one tube, in two passes: every sample's section read
+/// (into `read`, one slot a sample), then each moved to its nearest wall, which may start from
+/// the walls its neighbours' sections read.
+#[allow(clippy::too_many_arguments)]
+pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], read: &mut [Option<Walls>], params: SignedParams, emit: &Emit, out: &mut Vec<Contact>, counters: &mut Counters) {
     let mut walk = Walk::new(params.refine);
     // How far inside, beyond the rod's radius, a sample is clear: no contact, and no search
     // for the nearest wall (which starts within NEAREST_REACH margins).
@@ -65,7 +81,7 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
         // Most samples lie well inside: those only need their sector for next frame.
         // A sample clear of its own sector's wall is clear of the section's only where no wall on
         // its far side can touch it either ([`crate::around`]).
-        let read = |cache: &mut TubeCache, t: &TubeView, seg: usize, u: f32, k_guess: Option<usize>| {
+        let reading = |cache: &mut TubeCache, t: &TubeView, seg: usize, u: f32, k_guess: Option<usize>| {
             if params.refine == 0 && !(params.nearest && end) {
                 // With `nearest`, a wall along the tube may be nearer than the section's by its slope.
                 let reach = if params.nearest { (r + clear) * (1.0 + cache.slope_near(t, seg, r + clear).powi(2)).sqrt() } else { r + clear };
@@ -78,8 +94,16 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
             }
         };
         // A clear sample keeps only its place, as a gap deeper than the margin would: no contact.
-        let Some(Reading::Gap(mut g)) = walk.locate(&mut tube, &p, r, &mut tracks[s], counters, read) else { continue };
+        let Some(Reading::Gap(mut g)) = walk.locate(&mut tube, &p, r, &mut tracks[s], counters, reading) else { continue };
         let around = walls_around(&tube.view, tube.cache, &p, &mut g, r, r + emit.margin);
+        read[s] = Some((g, around));
+    }
+    #[allow(clippy::needless_range_loop)]
+    for s in 0..rod.len() {
+        let Some((mut g, around)) = read[s] else { continue };
+        let p = rod.pos[s];
+        let r = rod.radius[s];
+        let end = s == 0 || s + 1 == rod.len();
         let mut others = [None; MAX_OTHERS];
         // The nearest wall is sought where it may lie within reach: the section's wall itself,
         // or a wall along the tube as near as the wall's slope there allows.
@@ -90,7 +114,8 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
             g.sd > -reach || -g.sd < reach * (1.0 + cache.slope_near(&tube.view, g.seg, reach).powi(2)).sqrt()
         };
         if params.nearest && (end || seek(tube.cache, &g)) {
-            let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, if end { Search::Ends } else { Search::Across(&around) });
+            let search = if end { Search::Ends } else { Search::Across { own: &around, nearby: &nearby(rod, read, s, g.normal, r + emit.margin) } };
+            let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, search);
             (g, others) = (near.first, near.others);
         }
         merge(g.normal, &mut others, &around);
@@ -106,4 +131,43 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], par
             out.push(c);
         }
     }
+}
+
+/// The [`NEARBY`] wall points nearest sample `s` within `within` of it (scene's unit) among the
+/// walls read by the sections of the samples about it along the rod (both ways, up to the
+/// first sample farther than `within`), nearest first: only walls other than the one its own
+/// section reads first (normals more than [`OTHER_ANGLE_DEG`] from `normal`), which its own
+/// descents start from already.
+fn nearby(rod: &RodSamples, read: &[Option<Walls>], s: usize, normal: V3, within: f32) -> [Option<Gap>; NEARBY] {
+    let p = rod.pos[s];
+    let within2 = within * within;
+    let cos = OTHER_ANGLE_DEG.to_radians().cos();
+    let mut best = [(f32::INFINITY, None); NEARBY];
+    let mut keep = |g: &Gap| {
+        let d2 = (g.wall - p).norm_squared();
+        if d2 < within2 && g.normal.dot(&normal) < cos {
+            keep_nearest(&mut best, (d2, Some(*g)), |c| c.0);
+        }
+    };
+    let mut visit = |j: usize| {
+        if (rod.pos[j] - p).norm_squared() >= within2 {
+            return false;
+        }
+        if let Some((g, around)) = &read[j] {
+            keep(g);
+            around.iter().flatten().for_each(&mut keep);
+        }
+        true
+    };
+    for j in (0..s).rev() {
+        if !visit(j) {
+            break;
+        }
+    }
+    for j in s + 1..rod.len() {
+        if !visit(j) {
+            break;
+        }
+    }
+    best.map(|(_, g)| g)
 }

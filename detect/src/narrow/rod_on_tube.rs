@@ -58,7 +58,7 @@ pub fn exterior(tube: TubeFrame, rod_frame: RodFrame, best: &mut Vec<(f32, Gap)>
     for (s, &(depth, g)) in best.iter().enumerate() {
         let r = rod.radius[s];
         let (depth, g) = if params.nearest && depth > -NEAREST_REACH * emit.margin {
-            let g = nearest(t, cache, &rod.pos[s], g, 0.0, 0.0, Search::Across(&[])).first;
+            let g = nearest(t, cache, &rod.pos[s], g, 0.0, 0.0, Search::Across { own: &[], nearby: &[] }).first;
             (r - g.sd, g)
         } else {
             (depth, g)
