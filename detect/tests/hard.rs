@@ -51,6 +51,22 @@ fn along_x(rings: usize, spokes: usize, wall: impl Fn(usize, usize, (f32, f32)) 
     )
 }
 
+/// A slit along x (90 rings 1 apart, 32 spokes): a lumen 40 wide, its floor 7 below the
+/// midline and its ceiling `ceiling(i)` above it at ring `i`.
+fn slit(ceiling: impl Fn(usize) -> f32) -> Tube {
+    along_x(90, 32, |i, _, (c, s)| {
+        let up = if s > 0.0 {
+            ceiling(i) / s
+        } else if s < 0.0 {
+            -7.0 / s
+        } else {
+            f32::INFINITY
+        };
+        let t = (20.0 / c.abs().max(1e-6)).min(up);
+        (t * c, t * s)
+    })
+}
+
 fn assert_finite(cs: &[lumen_detect::Contact]) {
     for c in cs {
         let all = c.point_a.iter().chain(&c.point_b).chain(&c.normal).chain(&c.weights_b).chain([&c.depth, &c.param_a, &c.param_b]);
@@ -655,19 +671,7 @@ fn hard_slit_whose_far_wall_runs_down_along_the_tube() {
     // farther, but ahead along the tube the ramp comes nearer: a sample at x up to 55 overlaps
     // it by `6.5 - (58 - x) / sqrt(2)`, and must be reported that deep. No ring seed about the
     // floor's strips lies on the ceiling; the section sees it across the lumen.
-    let (rings, spokes) = (90, 32);
-    let ceiling = |i: usize| (7.5 - (i as f32 - 50.0).max(0.0)).max(2.0);
-    let colon = along_x(rings, spokes, |i, _, (c, s)| {
-        let up = if s > 0.0 {
-            ceiling(i) / s
-        } else if s < 0.0 {
-            -7.0 / s
-        } else {
-            f32::INFINITY
-        };
-        let t = (20.0 / c.abs().max(1e-6)).min(up);
-        (t * c, t * s)
-    });
+    let colon = slit(|i| (7.5 - (i as f32 - 50.0).max(0.0)).max(2.0));
     let (r, x) = (6.5, 4u32);
     // The margin of a physics client (2, as `lumen sim`'s): walls within it are reported too.
     let mut scene = interior(colon, line([30.0, 0.0, -0.5], [70.0, 0.0, -0.5], 41, r), x, Method::Signed);
@@ -681,7 +685,8 @@ fn hard_slit_whose_far_wall_runs_down_along_the_tube() {
         // Where the sample's own section crosses the ramp (x past 50) and the ramp's nearest
         // point lies on it: the section sees the ceiling across the lumen, and a descent from
         // there runs down the ramp. (Short of x = 50 the section's ceiling is the flat part, a
-        // minimum of its own the ramp's basin does not reach: not covered.)
+        // minimum of its own the ramp's basin does not reach: the next test, from the neighbours'
+        // walls.)
         let foot = 0.5 * (px + 58.0);
         if px <= 50.0 || px > 55.0 || foot > 55.0 || r - ramp < 0.05 {
             continue;
@@ -708,18 +713,7 @@ fn hard_slits_with_a_ramp_at_any_angle_ahead_of_or_behind_the_samples() {
         let (sin, cos) = angle.to_radians().sin_cos();
         for h in [7.5f32, 8.0] {
             let end = 50.0 + (h - 2.0) * cos / sin;
-            let ceiling = move |i: usize| (h - (i as f32 - 50.0).max(0.0) * sin / cos).max(2.0);
-            let colon = along_x(90, 32, |i, _, (c, s)| {
-                let up = if s > 0.0 {
-                    ceiling(i) / s
-                } else if s < 0.0 {
-                    -7.0 / s
-                } else {
-                    f32::INFINITY
-                };
-                let t = (20.0 / c.abs().max(1e-6)).min(up);
-                (t * c, t * s)
-            });
+            let colon = slit(|i| (h - (i as f32 - 50.0).max(0.0) * sin / cos).max(2.0));
             // The ramp: the points with `x sin + z cos = 50 sin + h cos`, the lumen below it.
             let plane = 50.0 * sin + h * cos;
             for z in [-0.5f32, 0.0] {
