@@ -746,3 +746,49 @@ fn hard_slits_with_a_ramp_at_any_angle_ahead_of_or_behind_the_samples() {
     assert!(misses.is_empty(), "{} of {checked} samples read shallow:\n{}", misses.len(), misses.join("\n"));
     assert!(checked >= 100 && before >= 10, "only {checked} samples checked, {before} short of the ramp");
 }
+
+#[test]
+fn hard_a_wall_that_passes_over_itself_a_little() {
+    // A straight tube of radius 10 whose ring 10 is swept back by `back` (its tips 1 to 1.25
+    // behind its own plane, past ring 9's) and in by `inward`: the wall folds into a thin flap
+    // pointing back, and near it a sample's section says inside while the nearest wall point
+    // faces it from behind. Any wall point bounds the distance to the wall, whichever way it
+    // faces: every sample of a rod of radius 2 run along the flap is read at least as deep as
+    // the nearest spoke tip (a wall point) says.
+    let spokes = 32;
+    let (r, x) = (2.0, 4u32);
+    let (mut checked, mut misses) = (0, Vec::new());
+    for back in [1.0f32, 1.25] {
+        for inward in [0.5f32, 0.75, 1.0] {
+            let colon = tube(
+                30,
+                spokes,
+                |i| [i as f32, 0.0, 0.0],
+                |i, k| {
+                    let a = k as f32 * TAU / spokes as f32;
+                    let (rad, dx) = if i == 10 { (10.0 - inward, -back) } else { (10.0, 0.0) };
+                    [dx, rad * a.cos(), rad * a.sin()]
+                },
+            );
+            let tips: Vec<V> = (0..30).flat_map(|i| (0..spokes).map(move |k| (i, k))).map(|(i, k)| add(colon.points[i], colon.spoke(i, k))).collect();
+            for rho in [6.0f32, 6.5, 7.0, 7.5, 8.0, 8.5] {
+                let cs = run(&interior(colon.clone(), line([2.0, rho, 0.3], [20.0, rho, 0.3], 19, r), x, Method::Signed));
+                assert_finite(&cs);
+                for s in 0..18 * x as usize + 1 {
+                    let p = [2.0 + s as f32 / x as f32, rho, 0.3];
+                    let near = tips.iter().map(|&t| norm(sub(t, p))).fold(f32::INFINITY, f32::min);
+                    if r - near <= 0.01 {
+                        continue;
+                    }
+                    checked += 1;
+                    let got = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+                    if got < r - near - 1e-3 {
+                        misses.push(format!("back {back}, in {inward}, sample at {p:?}: a tip {near:.3} away, reported depth {got}"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(misses.is_empty(), "{} of {checked} samples read shallower than a tip:\n{}", misses.len(), misses.join("\n"));
+    assert!(checked >= 100, "only {checked} samples near a tip");
+}
