@@ -795,3 +795,54 @@ fn hard_a_wall_that_passes_over_itself_a_little() {
     assert!(misses.is_empty(), "{} of {checked} samples read shallower than a tip:\n{}", misses.len(), misses.join("\n"));
     assert!(checked >= 100, "only {checked} samples near a tip");
 }
+
+#[test]
+fn hard_a_scope_outside_a_narrow_canal_beside_which_a_wide_loop_passes() {
+    // A canal of radius 3 along +z from the origin (40 rings 1 apart), a U-turn of radius 50
+    // in the x-z plane widening to 40, and a wide loop running back down past the canal's start
+    // (x = -100, to z = -200). A scope of radius 6.5 comes up from z = -300 at x = 5 into the
+    // canal, 5 off its axis: its centre lies 2 outside the canal's wall, and each sample there
+    // must be read against the canal (depth about 6.5 + 2), not against the loop 65 away that
+    // the samples outside the body beside it are read against.
+    let (spokes, canal, arc) = (32, 40usize, 157usize);
+    let rings = canal + arc + 240;
+    let place = move |i: usize| -> (V, V, f32) {
+        // (centre, the section's first axis e1, lumen radius); e2 is +y throughout.
+        if i < canal {
+            ([0.0, 0.0, i as f32], [1.0, 0.0, 0.0], 3.0)
+        } else if i < canal + arc {
+            let th = PI * (i - canal) as f32 / arc as f32;
+            let (s, c) = th.sin_cos();
+            ([-50.0 + 50.0 * c, 0.0, 40.0 + 50.0 * s], [c, 0.0, s], 3.0 + 37.0 * th / PI)
+        } else {
+            ([-100.0, 0.0, 40.0 - (i - canal - arc) as f32], [-1.0, 0.0, 0.0], 40.0)
+        }
+    };
+    let colon = tube(
+        rings,
+        spokes,
+        |i| place(i).0,
+        |i, k| {
+            let (_, e1, r) = place(i);
+            let a = k as f32 * TAU / spokes as f32;
+            [r * a.cos() * e1[0], r * a.sin(), r * a.cos() * e1[2]]
+        },
+    );
+    let (r, x) = (6.5f32, 4u32);
+    let mut scene = interior(colon, line([5.0, 0.0, -300.0], [5.0, 0.0, 30.0], 34, r), x, Method::Signed);
+    scene.margin = 2.0;
+    let cs = run(&scene);
+    assert_finite(&cs);
+    let n = 33 * x as usize;
+    let mut checked = 0;
+    for s in 0..=n {
+        let z = -300.0 + 330.0 * s as f32 / n as f32;
+        if !(2.0..=28.0).contains(&z) {
+            continue;
+        }
+        let depth = cs.iter().filter(|c| c.sample as usize == s).map(|c| c.depth).fold(f32::NEG_INFINITY, f32::max);
+        assert!((depth - 8.5).abs() < 0.3, "sample {s} at z {z}: depth {depth}, the canal's wall 2 inside it (about 8.5)");
+        checked += 1;
+    }
+    assert!(checked >= 10, "only {checked} samples in the canal");
+}

@@ -4,10 +4,11 @@
 //! planes from there; every other sample walks from the sample before it (a plane or two, with
 //! rings about as dense as the samples), so the rod is walked along the tube once a frame, and
 //! the answer is the one a session without history gives ([`Walk::locate`]). Each sample also
-//! remembers its sector, where its sector walk starts. Only when a walk fails, or the first
-//! sample's walk reads it outside the wall, does a sample re-acquire through the tube's BVH. A
-//! sample outside the wall keeps its segment: it is a contact with positive depth however far
-//! out it is, and its normal is the wall's.
+//! remembers its sector, where its sector walk starts. Only when a walk fails, the first
+//! sample's walk reads it outside the wall, or a walk reads it farther outside than its section
+//! is wide (walked onto another loop), does a sample re-acquire through the tube's BVH. A
+//! sample outside the wall otherwise keeps its segment: it is a contact with positive depth
+//! however far out it is, and its normal is the wall's.
 
 use super::aabb::Aabb;
 use super::{Counters, TubeFrame};
@@ -89,7 +90,12 @@ impl Walk {
             let chord2 = (t.point(seg + 1) - t.point(seg)).norm_squared();
             let reach = 8.0 * size.max(chord2.sqrt()) + 2.0 * r;
             let outside = matches!(read, Reading::Gap(g) if g.sd > 0.0);
-            if rho2 > reach * reach || (from_history && outside) {
+            // Farther outside than its section is wide: walked onto another loop (from the
+            // scope's samples outside the body, beside which a loop of the colon passes, into
+            // an anal canal narrower than the scope: read 64 to 90 mm outside that loop instead
+            // of 2 outside the canal), more likely than that far through the wall: re-acquire.
+            let far_outside = matches!(read, Reading::Gap(g) if g.sd > g.size);
+            if rho2 > reach * reach || (from_history && outside) || far_outside {
                 axial = Axial::Lost;
             } else {
                 reading = Some(read);
