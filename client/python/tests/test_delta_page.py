@@ -67,14 +67,20 @@ def rebuild(base: np.ndarray, msg: bytes) -> np.ndarray:
     return out.ravel().view(np.float32)
 
 
-def test_a_colon_sized_delta_rebuilds_the_state_bit_for_bit():
-    rng = np.random.default_rng(3)
+def colon_sized(seed: int, move):
+    """A colon-sized state (124,230 floats) and a new one whose 7,000 random rows `move(row,
+    rng)` changes, with one more float's sign flipped."""
+    rng = np.random.default_rng(seed)
     base = rng.normal(0, 40, 124_230).astype(np.float32)
     new = base.copy()
-    moved = rng.choice(base.size // 3, 7_000, replace=False)
-    for r in moved:
-        new[3 * r : 3 * r + 3] += rng.normal(0, 0.01, 3).astype(np.float32)
+    for r in rng.choice(base.size // 3, 7_000, replace=False):
+        new[3 * r : 3 * r + 3] = move(base[3 * r : 3 * r + 3], rng)
     new[9] = -new[9]
+    return base, new
+
+
+def test_a_colon_sized_delta_rebuilds_the_state_bit_for_bit():
+    base, new = colon_sized(3, lambda row, rng: row + rng.normal(0, 0.01, 3).astype(np.float32))
     msg = delta_frame()(1, 2, 1, base, new, 2)
     assert np.array_equal(rebuild(base, msg).view(np.uint32), new.view(np.uint32))
     assert len(msg) < 4 * new.size // 4, f"{len(msg)} bytes for 7,000 of 41,410 rows"
@@ -142,14 +148,8 @@ def test_the_pages_scaled_example_lengthens_the_second_point():
 
 
 def test_a_colon_sized_scaled_delta_rebuilds_bit_for_bit_and_is_smaller():
-    rng = np.random.default_rng(5)
-    base = rng.normal(0, 40, 124_230).astype(np.float32)
-    new = base.copy()
-    moved = rng.choice(base.size // 3, 7_000, replace=False)
     # Wall tips pushed along their own spokes: each row times one factor, rounded to float32.
-    for r in moved:
-        new[3 * r : 3 * r + 3] = (base[3 * r : 3 * r + 3] * np.float32(1 + rng.normal(0, 0.01))).astype(np.float32)
-    new[9] = -new[9]
+    base, new = colon_sized(5, lambda row, rng: row * np.float32(1 + rng.normal(0, 0.01)))
     raw = scaled_raw(base, new)
     assert np.array_equal(rebuild_scaled(base, raw).view(np.uint32), new.view(np.uint32))
     scaled = len(zstandard.ZstdCompressor(level=-1).compress(raw))
