@@ -249,12 +249,11 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         // Not a wall facing the way the side says (a fold seen from behind): the section's own
         // reading stands, at the distance of its foot on the wall; or, where the descent's end
         // lies within the contact margin (`within - reach`) or [`AT_WALL`] of the rod's radius,
-        // at that end's distance if nearer:
-        // the point is at the wall, on a wall that passes over itself (0.03 mm against the
-        // foot's 0.14 on the GCA colon inflated four times), and any wall point bounds the
-        // distance to the wall. (Farther, a wall seen from behind says little: taking its
-        // distance wherever nearer, walls 7 mm away in a generated colon's hairpin, the
-        // colonoscopy there went 1.01 mm deep instead of 0.64.)
+        // at that end's distance if nearer: the point is at the wall, on a wall that passes over
+        // itself (0.03 mm against the foot's 0.14 on the GCA colon inflated four times), and any
+        // wall point bounds the distance to the wall. (Farther, a wall seen from behind says
+        // little: taking its distance wherever nearer, walls 7 mm away in a generated colon's
+        // hairpin, the colonoscopy there went 1.01 mm deep instead of 0.64.)
         let foot = (p - s0.s).norm();
         let at_wall = (within - reach).max(AT_WALL * reach);
         let dist = if end.d2 < at_wall * at_wall { foot.min(end.d2.sqrt()) } else { foot };

@@ -183,12 +183,17 @@ fn apply(map: &[u8], scales: Option<&[u32]>, zs: &[u32], state: &mut [f32], mut 
     }
 }
 
+/// The bits of the float `v` times `s`: the prediction's one IEEE-754 single multiplication.
+#[inline(always)]
+fn times(v: u32, s: f32) -> u32 {
+    (f32::from_bits(v) * s).to_bits()
+}
+
 /// The bits of `row` times the scale coded `z`.
 #[inline(always)]
 fn scaled_row(row: &[u32], z: u32) -> [u32; 3] {
     let s = scale_of(z);
-    let times = |v: u32| (f32::from_bits(v) * s).to_bits();
-    [times(row[0]), times(row[1]), times(row[2])]
+    [times(row[0], s), times(row[1], s), times(row[2], s)]
 }
 
 /// Bits a coded number needs, the encoder's measure of what a row costs.
@@ -214,8 +219,7 @@ fn code_row(b: &[u32], n: &[u32], scaled: bool) -> (u32, [u32; 3]) {
     let k = if m[2] > m[k01] { 2 } else { k01 };
     let s = f32::from_bits(n[k]) / f32::from_bits(b[k]);
     let z = zigzag(s.to_bits().wrapping_sub(ONE));
-    let times = |v: u32| (f32::from_bits(v) * s).to_bits();
-    let r = [zigzag(n[0].wrapping_sub(times(b[0]))), zigzag(n[1].wrapping_sub(times(b[1]))), zigzag(n[2].wrapping_sub(times(b[2])))];
+    let r = [zigzag(n[0].wrapping_sub(times(b[0], s))), zigzag(n[1].wrapping_sub(times(b[1], s))), zigzag(n[2].wrapping_sub(times(b[2], s)))];
     // Selected by a mask, not a branch: the choice flips from row to row.
     let take = s.is_finite() & (z != 0) & (bits_of(z) + 3 * bits_of(r[0] | r[1] | r[2]) < 3 * bits_of(plain[0] | plain[1] | plain[2]));
     let mask = 0u32.wrapping_sub(take as u32);
