@@ -276,6 +276,31 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
     Near { first, others: pick_others(&from, &mut found.at[..found.n], normal, cos) }
 }
 
+/// `near` (a point's nearest wall as [`nearest`] found it) moved to where a descent from `seed`
+/// ends, where that is a wall facing `p` nearer than `near`: `seed` is a wall point nearer `p`
+/// than `near`, the nearest wall a neighbouring sample found. The nearest wall point moves
+/// continuously with the point except across the medial axis, so where a point's own descents
+/// ended in a local minimum of the distance that its neighbours' did not, a neighbour's answer
+/// starts a descent in the basin of the nearer one. `reach`: the distance along the tube the
+/// descent may go (scene's unit).
+pub fn nearer_from(t: &TubeView, cache: &mut TubeCache, p: &V3, near: &Gap, seed: &Gap, reach: f32) -> Option<Gap> {
+    let side = if near.outside { 1.0 } else { -1.0 };
+    let spacing = (t.point(seed.seg + 1) - t.point(seed.seg)).norm();
+    let rings = if spacing > 0.0 { (reach / spacing).ceil().min(MAX_CROSSINGS as f32) as usize } else { MAX_CROSSINGS };
+    let mut probe = Probe { t, cache, p, tol: 1e-4 * near.size.max(1e-6), side, rings };
+    let at = Patch { seg: seed.seg, k: seed.k, u: seed.u.clamp(0.0, 1.0), l: seed.l.clamp(0.0, 1.0) };
+    let here = probe.local(at);
+    if !here.faces(p, probe.cache.ring(t, at.seg).o, side) {
+        return None;
+    }
+    let e = descend(&mut probe, at, here, None, ITERATIONS);
+    if e.d2 >= near.sd * near.sd {
+        return None;
+    }
+    let (normal, dist) = judge(&mut probe, &e)?;
+    Some(gap_at(near, &e, normal, side * dist))
+}
+
 /// What [`nearest`] searches beyond its seeds.
 #[derive(Debug, Clone, Copy)]
 pub enum Search<'a> {

@@ -5,12 +5,15 @@
 //! normal is the wall's. Every sample's section is read first, then each sample's nearest wall
 //! is sought, also from the walls its neighbours' sections read: a wall ahead of a sample along
 //! the tube (a slit's ceiling running down) is often read by the next samples' sections only.
+//! Last, a sample whose descents all ended in a local minimum of the distance (the wall beyond
+//! a fold's flank) descends again from the nearest wall point a neighbour found, where that may
+//! lie in another basin ([`mend`]).
 
 use super::{Emit, SignedParams, NEAREST_REACH};
 use crate::around::{merge, walls_around};
 use crate::broad::track::{Track, Walk};
 use crate::broad::{Counters, TubeFrame};
-use crate::nearest::{keep_nearest, nearest, Search, MAX_OTHERS, OTHER_ANGLE_DEG};
+use crate::nearest::{keep_nearest, nearer_from, nearest, Search, MAX_OTHERS, OTHER_ANGLE_DEG};
 use crate::samples::RodSamples;
 use crate::section::{Gap, Reading, TubeCache};
 use crate::view::TubeView;
@@ -27,10 +30,48 @@ pub struct RodInTube {
     tracks: Vec<Track>,
     /// One per rod sample, this frame: its section's walls, where it is not clear.
     read: Vec<Option<Walls>>,
+    /// One per rod sample, this frame: its nearest wall and the other walls about it.
+    found: Vec<Option<Found>>,
+    /// One per rod sample, this frame: what [`mend`] reads of its nearest wall.
+    feet: Vec<Foot>,
+}
+
+/// A sample's nearest wall this frame and the other walls about it.
+#[derive(Debug, Clone, Copy)]
+struct Found {
+    first: Gap,
+    others: [Option<Gap>; MAX_OTHERS],
+}
+
+/// What [`mend`] reads of a sample's nearest wall, laid out for its loop over neighbours: the
+/// wall point, the outward normal, the distance and side, whether it was sought on the
+/// continuous wall and whether [`mend`] moved it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Foot {
+    wall: V3,
+    normal: V3,
+    dist: f32,
+    outside: bool,
+    sought: bool,
+    mended: bool,
+}
+
+impl Foot {
+    /// A sought sample's nearest wall `g`.
+    fn of(g: &Gap) -> Self {
+        Self { wall: g.wall, normal: g.normal, dist: g.sd.abs(), outside: g.outside, sought: true, mended: false }
+    }
 }
 
 /// A sample's section walls: its first reading and the walls it sees across the lumen.
 type Walls = (Gap, [Option<Gap>; MAX_OTHERS]);
+
+/// A neighbour's wall point farther from a sample's own than this many times the step between
+/// the two samples may lie in another basin of the distance ([`mend`]): along one smooth wall
+/// the nearest point moves by less than the point where the wall is convex towards it, a
+/// little more where it is concave (by `R / (R - d)` at distance `d` inside a tube of radius
+/// `R`).
+const MEND_RATIO: f32 = 1.0;
 
 /// Wall points of the neighbouring samples' sections a sample descends from at most.
 const NEARBY: usize = 2;
@@ -38,7 +79,7 @@ const NEARBY: usize = 2;
 impl RodInTube {
     /// The job for rod slot `rod` inside tube slot `tube`, without history.
     pub fn new(rod: usize, tube: usize) -> Self {
-        Self { rod, tube, tracks: Vec::new(), read: Vec::new() }
+        Self { rod, tube, tracks: Vec::new(), read: Vec::new(), found: Vec::new(), feet: Vec::new() }
     }
 
     /// Forgets every sample's track: the next frame locates each through the BVH.
@@ -55,15 +96,31 @@ impl RodInTube {
         }
         self.read.clear();
         self.read.resize(rod.len(), None);
-        interior(tube, rod, &mut self.tracks, &mut self.read, params, emit, out, counters);
+        self.found.clear();
+        self.found.resize(rod.len(), None);
+        self.feet.clear();
+        self.feet.resize(rod.len(), Foot::default());
+        interior(tube, rod, &mut self.tracks, &mut self.read, &mut self.found, &mut self.feet, params, emit, out, counters);
     }
 }
 
-/// Interior contacts of one rod inside one tube, in two passes: every sample's section read
-/// (into `read`, one slot a sample), then each moved to its nearest wall, which may start from
-/// the walls its neighbours' sections read.
+/// Interior contacts of one rod inside one tube, in three passes: every sample's section read
+/// (into `read`, one slot a sample); each moved to its nearest wall (into `found` and `feet`),
+/// which may start from the walls its neighbours' sections read; and each moved on where a
+/// descent from a neighbour's nearest wall ends nearer ([`mend`]).
 #[allow(clippy::too_many_arguments)]
-pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], read: &mut [Option<Walls>], params: SignedParams, emit: &Emit, out: &mut Vec<Contact>, counters: &mut Counters) {
+fn interior(
+    mut tube: TubeFrame,
+    rod: &RodSamples,
+    tracks: &mut [Track],
+    read: &mut [Option<Walls>],
+    found: &mut [Option<Found>],
+    feet: &mut [Foot],
+    params: SignedParams,
+    emit: &Emit,
+    out: &mut Vec<Contact>,
+    counters: &mut Counters,
+) {
     let mut walk = Walk::new(params.refine);
     // How far inside, beyond the rod's radius, a sample is clear: no contact, and no search
     // for the nearest wall (which starts within NEAREST_REACH margins).
@@ -113,11 +170,28 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], rea
             let reach = r + clear;
             g.sd > -reach || -g.sd < reach * (1.0 + cache.slope_near(&tube.view, g.seg, reach).powi(2)).sqrt()
         };
-        if params.nearest && (end || seek(tube.cache, &g)) {
+        let sought = params.nearest && (end || seek(tube.cache, &g));
+        if sought {
             let search = if end { Search::Ends } else { Search::Across { own: &around, nearby: &nearby(rod, read, s, g.normal, r + emit.margin) } };
             let near = nearest(&tube.view, tube.cache, &p, g, r, r + emit.margin, search);
             (g, others) = (near.first, near.others);
         }
+        found[s] = Some(Found { first: g, others });
+        feet[s] = if sought { Foot::of(&g) } else { Foot::default() };
+    }
+    if params.nearest {
+        // Forth, then back: a neighbour's mended wall seeds the next sample's.
+        for s in 0..rod.len() {
+            mend(&mut tube, rod, found, feet, s, emit.margin, false);
+        }
+        for s in (0..rod.len()).rev() {
+            mend(&mut tube, rod, found, feet, s, emit.margin, true);
+        }
+    }
+    #[allow(clippy::needless_range_loop)]
+    for s in 0..rod.len() {
+        let (Some((_, around)), Some(Found { first: g, mut others })) = (read[s], found[s]) else { continue };
+        let r = rod.radius[s];
         merge(g.normal, &mut others, &around);
         let depth = g.sd + r;
         if depth > -emit.margin {
@@ -131,6 +205,65 @@ pub fn interior(mut tube: TubeFrame, rod: &RodSamples, tracks: &mut [Track], rea
             out.push(c);
         }
     }
+}
+
+/// Sample `s`'s nearest wall moved to a nearer one found by a descent from a neighbouring
+/// sample's nearest wall point ([`nearer_from`]): where its own descents ended in a local
+/// minimum of the distance its neighbours' did not. The neighbours are the samples within the
+/// rod's radius plus `margin` of it along the rod (only those mended already where
+/// `only_mended`); of their wall points, the one tried is that whose tangent plane passes
+/// nearest the sample, where that is nearer than the sample's own wall and than the rod's radius
+/// plus `margin` (near enough for a contact) and the wall point lies farther from the sample's
+/// own than [`MEND_RATIO`] times the step between the two samples. The wall it leaves stays an
+/// other wall where it stands apart from the new one.
+fn mend(tube: &mut TubeFrame, rod: &RodSamples, found: &mut [Option<Found>], feet: &mut [Foot], s: usize, margin: f32, only_mended: bool) {
+    let mine = feet[s];
+    if !mine.sought {
+        return;
+    }
+    let p = rod.pos[s];
+    let within = rod.radius[s] + margin;
+    let within2 = within * within;
+    let side = if mine.outside { 1.0 } else { -1.0 };
+    let mut best = (mine.dist.min(within), usize::MAX);
+    let mut visit = |j: usize| {
+        let step2 = (rod.pos[j] - p).norm_squared();
+        if step2 >= within2 {
+            return false;
+        }
+        let f = &feet[j];
+        if f.sought && (f.mended || !only_mended) {
+            let plane = (p - f.wall).dot(&f.normal) * side;
+            if plane < best.0 && (f.wall - mine.wall).norm_squared() > MEND_RATIO * MEND_RATIO * step2 {
+                best = (plane, j);
+            }
+        }
+        true
+    };
+    for j in (0..s).rev() {
+        if !visit(j) {
+            break;
+        }
+    }
+    for j in s + 1..rod.len() {
+        if !visit(j) {
+            break;
+        }
+    }
+    let (Some(Some(seed)), Some(mine)) = (found.get(best.1), found[s]) else { return };
+    let Some(first) = nearer_from(&tube.view, tube.cache, &p, &mine.first, &seed.first, within) else { return };
+    let cos = OTHER_ANGLE_DEG.to_radians().cos();
+    let mut others = [None; MAX_OTHERS];
+    let kept = std::iter::once(mine.first).chain(mine.others.into_iter().flatten());
+    let mut n = 0;
+    for g in kept.filter(|g| g.normal.dot(&first.normal) < cos) {
+        if n < MAX_OTHERS && others[..n].iter().flatten().all(|o: &Gap| g.normal.dot(&o.normal) < cos) {
+            others[n] = Some(g);
+            n += 1;
+        }
+    }
+    found[s] = Some(Found { first, others });
+    feet[s] = Foot { mended: true, ..Foot::of(&first) };
 }
 
 /// The [`NEARBY`] wall points nearest sample `s` within `within` of it (scene's unit) among the
