@@ -226,11 +226,7 @@ fn mend(tube: &mut TubeFrame, rod: &RodSamples, found: &mut [Option<Found>], fee
     let within2 = within * within;
     let side = if mine.outside { 1.0 } else { -1.0 };
     let mut best = (mine.dist.min(within), usize::MAX);
-    let mut visit = |j: usize| {
-        let step2 = (rod.pos[j] - p).norm_squared();
-        if step2 >= within2 {
-            return false;
-        }
+    about(rod, s, within2, |j, step2| {
         let f = &feet[j];
         if f.sought && (f.mended || !only_mended) {
             let plane = (p - f.wall).dot(&f.normal) * side;
@@ -238,18 +234,7 @@ fn mend(tube: &mut TubeFrame, rod: &RodSamples, found: &mut [Option<Found>], fee
                 best = (plane, j);
             }
         }
-        true
-    };
-    for j in (0..s).rev() {
-        if !visit(j) {
-            break;
-        }
-    }
-    for j in s + 1..rod.len() {
-        if !visit(j) {
-            break;
-        }
-    }
+    });
     let (Some(Some(seed)), Some(mine)) = (found.get(best.1), found[s]) else { return };
     let Some(first) = nearer_from(&tube.view, tube.cache, &p, &mine.first, &seed.first, within) else { return };
     let cos = OTHER_ANGLE_DEG.to_radians().cos();
@@ -282,25 +267,32 @@ fn nearby(rod: &RodSamples, read: &[Option<Walls>], s: usize, normal: V3, within
             keep_nearest(&mut best, (d2, Some(*g)), |c| c.0);
         }
     };
-    let mut visit = |j: usize| {
-        if (rod.pos[j] - p).norm_squared() >= within2 {
-            return false;
-        }
+    about(rod, s, within2, |j, _| {
         if let Some((g, around)) = &read[j] {
             keep(g);
             around.iter().flatten().for_each(&mut keep);
         }
-        true
+    });
+    best.map(|(_, g)| g)
+}
+
+/// Calls `visit(j, step2)` for the samples about sample `s` along the rod, each way out to the
+/// first farther than `sqrt(within2)` from it (`step2`: the squared distance between the two).
+#[inline]
+fn about(rod: &RodSamples, s: usize, within2: f32, mut visit: impl FnMut(usize, f32)) {
+    let p = rod.pos[s];
+    let mut near = |j: usize| {
+        let step2 = (rod.pos[j] - p).norm_squared();
+        (step2 < within2).then(|| visit(j, step2)).is_some()
     };
     for j in (0..s).rev() {
-        if !visit(j) {
+        if !near(j) {
             break;
         }
     }
     for j in s + 1..rod.len() {
-        if !visit(j) {
+        if !near(j) {
             break;
         }
     }
-    best.map(|(_, g)| g)
 }
