@@ -28,11 +28,25 @@ pub struct ImportParams {
     /// The widest tangent smoothing the import tries for the ring planes (default 64 mm; equal
     /// to `tangent_smoothing_mm`, the planes follow that one smoothing: [`crate::slice`]).
     pub widest_smoothing_mm: f32,
+    /// The wall's 99th-percentile distance to the surface (before inflation) the import aims
+    /// for, in the mesh's unit: where the wall at `spokes` lies farther, it casts again with
+    /// [`SPOKES_STEP`] more spokes a ring, up to [`MAX_AUTO_SPOKES`], and keeps the truest
+    /// ([`ImportReport::spokes_tried`]). 0 (the default): `spokes` as given (`lumen import
+    /// --fidelity`).
+    pub fidelity_mm: f32,
 }
+
+/// Spokes a ring the import adds at each try for [`ImportParams::fidelity_mm`].
+pub const SPOKES_STEP: usize = 8;
+
+/// Most spokes a ring the import raises to for [`ImportParams::fidelity_mm`]: each try casts the
+/// whole colon again (about 20 s for the GCA colon at 40 spokes), and the detector's cost per
+/// sample grows with the spokes it reads.
+pub const MAX_AUTO_SPOKES: usize = 64;
 
 impl Default for ImportParams {
     fn default() -> Self {
-        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0, widest_smoothing_mm: crate::slice::WIDEST as f32 }
+        Self { spokes: 32, ring_spacing: 1.0, inflate: 1.0, tangent_smoothing_mm: 4.0, point_smoothing_mm: 1.0, widest_smoothing_mm: crate::slice::WIDEST as f32, fidelity_mm: 0.0 }
     }
 }
 
@@ -52,6 +66,9 @@ impl ImportParams {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ImportError::Param { name, value: v.to_string(), expected: "a number >= 0".into() });
             }
+        }
+        if !(self.fidelity_mm.is_finite() && self.fidelity_mm >= 0.0) {
+            return Err(ImportError::Param { name: "fidelity", value: self.fidelity_mm.to_string(), expected: "a number >= 0 (0: the spokes as given)".into() });
         }
         let w = self.widest_smoothing_mm;
         if !(w.is_finite() && w >= self.tangent_smoothing_mm) {
@@ -151,6 +168,11 @@ pub struct ImportReport {
     pub turns_back: Vec<usize>,
     /// The wall (before inflation) against the surface, in its unit.
     pub fidelity: crate::fidelity::Fidelity,
+    /// Where the import raised the spokes for [`ImportParams::fidelity_mm`]: the target, and
+    /// each count tried with its wall's p99 distance to the surface, in order (empty where the
+    /// first was within the target or no target was set).
+    pub spokes_tried: Vec<(usize, f64)>,
+    pub fidelity_target: f64,
     /// Every ring's counts, in order along the midline, for naming where a problem lies.
     pub ring_tallies: Vec<RingTally>,
 }
@@ -289,6 +311,10 @@ impl fmt::Display for ImportReport {
             Some(r) if r.used => write!(f, " The rings lie on the midline re-traced through the middle of the lumen ({:.1} mm grid, smoothed over {:.1} mm): on the given midline the wall lay {:.2} mm from the surface at p99, with {} spokes clipped.", r.voxel_mm, r.smoothing_mm, r.other_p99_mm, r.other_clipped)?,
             Some(r) => write!(f, " The rings lie on the given midline: re-traced through the middle of the lumen ({:.1} mm grid, smoothed over {:.1} mm), its wall lay {:.2} mm from the surface at p99 with {} spokes clipped, not under half the given one's.", r.voxel_mm, r.smoothing_mm, r.other_p99_mm, r.other_clipped)?,
             None => {}
+        }
+        if !self.spokes_tried.is_empty() {
+            let tried: Vec<String> = self.spokes_tried.iter().map(|(b, p99)| format!("{b} ({p99:.2} mm)")).collect();
+            write!(f, " Spokes a ring raised for a wall within {:.2} mm of the surface at p99: {}; kept {}.", self.fidelity_target, tried.join(", "), self.spokes)?;
         }
         if self.flipped {
             write!(f, " The surface's normals faced its lumen; it was read flipped.")?;
@@ -442,7 +468,33 @@ const ORIENTED_AGREEMENT: f64 = 0.8;
 /// `inflate`. Where spokes still cross on the given midline (and it never turns back), the midline re-traced through the
 /// middle of the lumen ([`crate::axis`]) is sliced too and replaces it when its wall is more
 /// than [`RETRACE_GAIN`] times truer ([`ImportReport::retraced`]).
+///
+/// With [`ImportParams::fidelity_mm`] set, where that wall lies farther from the surface at p99,
+/// the whole import again with [`SPOKES_STEP`] more spokes, up to [`MAX_AUTO_SPOKES`]: the
+/// truest is kept.
 pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
+    let mut best = build_sliced(mesh, centerline, params)?;
+    let target = params.fidelity_mm as f64;
+    if target <= 0.0 || best.1.fidelity.p99 <= target {
+        return Ok(best);
+    }
+    let mut tried = vec![(params.spokes, best.1.fidelity.p99)];
+    let mut spokes = params.spokes;
+    while best.1.fidelity.p99 > target && spokes + SPOKES_STEP <= MAX_AUTO_SPOKES {
+        spokes += SPOKES_STEP;
+        let next = build_sliced(mesh, centerline, &ImportParams { spokes, ..params.clone() })?;
+        tried.push((spokes, next.1.fidelity.p99));
+        if next.1.fidelity.p99 < best.1.fidelity.p99 {
+            best = next;
+        }
+    }
+    best.1.spokes_tried = tried;
+    best.1.fidelity_target = target;
+    Ok(best)
+}
+
+/// [`build_tube`] at `params.spokes`.
+fn build_sliced(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
     let (tube, report) = build_along(mesh, centerline, params)?;
     // Sections still crossed on the given midline: try the one re-traced through the lumen,
     // unless the given one runs back on itself (points out of order: the gate says so, and a

@@ -58,7 +58,7 @@ pub mod quality;
 pub mod slice;
 pub mod units;
 
-pub use build::{build_tube, ImportParams, ImportReport, Retraced, RingTally, GCA_INFLATE, RETRACE_GAIN};
+pub use build::{build_tube, ImportParams, ImportReport, Retraced, RingTally, GCA_INFLATE, MAX_AUTO_SPOKES, RETRACE_GAIN, SPOKES_STEP};
 pub use centerline::{load_centerline, load_centerline_csv, parse_centerline_csv, parse_centerline_json, write_centerline_csv, Centerline};
 pub use mesh::{load_mesh, parse_obj, parse_ply, parse_stl, parse_vtk, parse_vtp, write_obj, Mesh, SURFACE_FORMATS};
 pub use quality::{assess, Cause, Problem, Thresholds};

@@ -241,6 +241,7 @@ fn bad_parameters_are_refused() {
         (ImportParams { inflate: -1.0, ..Default::default() }, "inflate -1"),
         (ImportParams { tangent_smoothing_mm: -1.0, ..Default::default() }, "tangent_smoothing -1"),
         (ImportParams { point_smoothing_mm: f32::NAN, ..Default::default() }, "point_smoothing NaN"),
+        (ImportParams { fidelity_mm: -1.0, ..Default::default() }, "fidelity -1"),
         (ImportParams { tangent_smoothing_mm: 8.0, widest_smoothing_mm: 4.0, ..Default::default() }, "widest_smoothing 4: expected a number >= the tangent smoothing (8)"),
     ] {
         let e = build_tube(&mesh, &axis(3), &p).unwrap_err().to_string();
@@ -386,4 +387,41 @@ fn a_bend_tighter_than_the_lumen_is_sliced_with_planes_that_do_not_cross_inside_
     assert!(folded.spokes > 10 && folded.max_cut > 5.0, "{folded:?}");
     // The wall stays on the surface.
     assert!(rep.fidelity.p99 < 0.5, "{:?}", rep.fidelity);
+}
+
+/// A tube along z of radius `r + amp cos(lobes a)` at angle `a`: folds running along it, as a
+/// colon's taeniae do, which the chords between spokes cut across.
+fn fluted(r: f32, amp: f32, lobes: f32, len: f32, around: usize, along: usize) -> Mesh {
+    let mut m = cylinder(0.0, r, len, around, along);
+    for v in m.vertices.iter_mut().take((along + 1) * around) {
+        let a = v[1].atan2(v[0]);
+        let s = (r + amp * (lobes * a).cos()) / r;
+        (v[0], v[1]) = (v[0] * s, v[1] * s);
+    }
+    m
+}
+
+#[test]
+fn spokes_are_raised_until_the_wall_is_true_to_the_surface() {
+    let mesh = fluted(20.0, 3.0, 8.0, 100.0, 256, 20);
+    let fixed = ImportParams { spokes: 32, ..Default::default() };
+    let (_, at32) = build_tube(&mesh, &axis(10), &fixed).unwrap();
+    assert!(at32.fidelity.p99 > 0.5, "32 spokes: p99 {} mm", at32.fidelity.p99);
+    assert!(at32.spokes_tried.is_empty());
+    let (tube, rep) = build_tube(&mesh, &axis(10), &ImportParams { fidelity_mm: 0.5, ..fixed.clone() }).unwrap();
+    eprintln!("{rep}");
+    assert!(rep.spokes > 32 && tube.spokes == rep.spokes, "kept {} spokes", rep.spokes);
+    assert!(rep.fidelity.p99 <= 0.5 && rep.fidelity.p99 < at32.fidelity.p99, "p99 {} mm", rep.fidelity.p99);
+    assert_eq!(rep.spokes_tried.first().map(|t| t.0), Some(32));
+    assert_eq!(rep.spokes_tried.last().map(|t| t.0), Some(rep.spokes), "{:?}", rep.spokes_tried);
+    assert!(rep.spokes_tried.iter().rev().skip(1).all(|t| t.1 > 0.5), "stops at the first within 0.5 mm: {:?}", rep.spokes_tried);
+    assert!(rep.to_string().contains(&format!("32 ({:.2} mm)", at32.fidelity.p99)), "{rep}");
+    // A smooth wall is true at 32 spokes: nothing is raised.
+    let (_, smooth) = build_tube(&cylinder(0.0, 10.0, 100.0, 64, 20), &axis(10), &ImportParams { fidelity_mm: 0.5, ..fixed.clone() }).unwrap();
+    assert_eq!((smooth.spokes, smooth.spokes_tried.len()), (32, 0));
+    // Never past MAX_AUTO_SPOKES: the finest folds are kept at the truest count tried.
+    let (_, fine) = build_tube(&fluted(20.0, 2.0, 40.0, 100.0, 512, 20), &axis(10), &ImportParams { fidelity_mm: 0.5, ..fixed }).unwrap();
+    assert_eq!(fine.spokes_tried.last().map(|t| t.0), Some(MAX_AUTO_SPOKES), "{:?}", fine.spokes_tried);
+    let best = fine.spokes_tried.iter().map(|t| t.1).fold(f64::INFINITY, f64::min);
+    assert_eq!(fine.fidelity.p99, best);
 }

@@ -95,6 +95,9 @@ fn broken_inputs_are_refused_with_file_and_line() {
     let out = import(&d, "cyl.obj", "x.lumen", &["--inflate=-1"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--inflate"));
+    let out = import(&d, "cyl.obj", "x.lumen", &["--fidelity=-1"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--fidelity"));
     let _ = std::fs::remove_dir_all(&d);
 }
 
