@@ -135,7 +135,7 @@ pub fn walls_around(t: &TubeView, cache: &mut TubeCache, p: &V3, first: &mut Gap
 
 /// `others` with the walls of `more` added where a slot is free and each is more than
 /// [`OTHER_ANGLE_DEG`] from the first's `normal` and from every wall already there.
-pub fn merge(normal: V3, others: &mut [Option<Gap>; MAX_OTHERS], more: &[Option<Gap>; MAX_OTHERS]) {
+pub fn merge(normal: V3, others: &mut [Option<Gap>; MAX_OTHERS], more: &[Option<Gap>]) {
     let cos = OTHER_ANGLE_DEG.to_radians().cos();
     for g in more.iter().flatten() {
         let apart = g.normal.dot(&normal) < cos && others.iter().flatten().all(|o| g.normal.dot(&o.normal) < cos);

@@ -82,6 +82,25 @@ struct Patch {
     l: f32,
 }
 
+impl Patch {
+    /// Where a section reading or a wall found lies, its coordinates clamped to the patch.
+    fn of(g: &Gap) -> Self {
+        Self { seg: g.seg, k: g.k, u: g.u.clamp(0.0, 1.0), l: g.l.clamp(0.0, 1.0) }
+    }
+}
+
+/// Rings within `dist` along the tube of segment `seg` (at most [`MAX_CROSSINGS`]): where they
+/// are denser than a descent's steps cover, its budget grows by them (a step stops at each ring
+/// it crosses).
+fn rings_within(t: &TubeView, seg: usize, dist: f32) -> usize {
+    let spacing = (t.point(seg + 1) - t.point(seg)).norm();
+    if spacing > 0.0 {
+        (dist / spacing).ceil().min(MAX_CROSSINGS as f32) as usize
+    } else {
+        MAX_CROSSINGS
+    }
+}
+
 /// The wall at a patch point and its derivatives there (see the module's formulas).
 #[derive(Clone, Copy)]
 struct Local {
@@ -211,12 +230,9 @@ pub const OTHER_ANGLE_DEG: f32 = 30.0;
 pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f32, within: f32, search: Search) -> Near {
     let scan = matches!(search, Search::Ends);
     let side = if from.outside { 1.0 } else { -1.0 };
-    // Rings within the search's distance along the tube: where they are denser than a descent's
-    // steps cover, its budget grows by them (a step stops at each ring it crosses).
-    let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm();
-    let rings = if spacing > 0.0 { ((reach + within) / spacing).ceil().min(MAX_CROSSINGS as f32) as usize } else { MAX_CROSSINGS };
+    let rings = rings_within(t, from.seg, reach + within);
     let mut probe = Probe { t, cache, p, tol: 1e-4 * from.size.max(1e-6), side, rings };
-    let start = Patch { seg: from.seg, k: from.k, u: from.u.clamp(0.0, 1.0), l: from.l.clamp(0.0, 1.0) };
+    let start = Patch::of(&from);
     let s0 = probe.local(start);
     // The ends of descents that lost to `end`: candidates for other walls.
     let mut spare: [Option<End>; 4 + SCAN_SEEDS] = [None; 4 + SCAN_SEEDS];
@@ -285,10 +301,9 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
 /// descent may go (scene's unit).
 pub fn nearer_from(t: &TubeView, cache: &mut TubeCache, p: &V3, near: &Gap, seed: &Gap, reach: f32) -> Option<Gap> {
     let side = if near.outside { 1.0 } else { -1.0 };
-    let spacing = (t.point(seed.seg + 1) - t.point(seed.seg)).norm();
-    let rings = if spacing > 0.0 { (reach / spacing).ceil().min(MAX_CROSSINGS as f32) as usize } else { MAX_CROSSINGS };
+    let rings = rings_within(t, seed.seg, reach);
     let mut probe = Probe { t, cache, p, tol: 1e-4 * near.size.max(1e-6), side, rings };
-    let at = Patch { seg: seed.seg, k: seed.k, u: seed.u.clamp(0.0, 1.0), l: seed.l.clamp(0.0, 1.0) };
+    let at = Patch::of(seed);
     let here = probe.local(at);
     if !here.faces(p, probe.cache.ring(t, at.seg).o, side) {
         return None;
@@ -604,7 +619,7 @@ impl Probe<'_> {
     fn across_descents(&mut self, across: &[Option<Gap>], end: &mut End) -> Option<End> {
         let mut displaced = None;
         for g in across.iter().flatten() {
-            let at = Patch { seg: g.seg, k: g.k, u: g.u.clamp(0.0, 1.0), l: g.l.clamp(0.0, 1.0) };
+            let at = Patch::of(g);
             displaced = self.descent_from(at, end).or(displaced);
         }
         displaced

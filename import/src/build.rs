@@ -168,10 +168,11 @@ pub struct ImportReport {
     pub turns_back: Vec<usize>,
     /// The wall (before inflation) against the surface, in its unit.
     pub fidelity: crate::fidelity::Fidelity,
-    /// Where the import raised the spokes for [`ImportParams::fidelity_mm`]: the target, and
-    /// each count tried with its wall's p99 distance to the surface, in order (empty where the
-    /// first was within the target or no target was set).
+    /// Where the import raised the spokes for [`ImportParams::fidelity_mm`]: each count tried
+    /// with its wall's p99 distance to the surface, in order (empty where the first was within
+    /// the target or no target was set).
     pub spokes_tried: Vec<(usize, f64)>,
+    /// The [`ImportParams::fidelity_mm`] the spokes were raised for (0 where they were not).
     pub fidelity_target: f64,
     /// Every ring's counts, in order along the midline, for naming where a problem lies.
     pub ring_tallies: Vec<RingTally>,

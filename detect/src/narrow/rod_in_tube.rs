@@ -237,16 +237,9 @@ fn mend(tube: &mut TubeFrame, rod: &RodSamples, found: &mut [Option<Found>], fee
     });
     let (Some(Some(seed)), Some(mine)) = (found.get(best.1), found[s]) else { return };
     let Some(first) = nearer_from(&tube.view, tube.cache, &p, &mine.first, &seed.first, within) else { return };
-    let cos = OTHER_ANGLE_DEG.to_radians().cos();
+    let left: [Option<Gap>; 1 + MAX_OTHERS] = std::array::from_fn(|i| if i == 0 { Some(mine.first) } else { mine.others[i - 1] });
     let mut others = [None; MAX_OTHERS];
-    let kept = std::iter::once(mine.first).chain(mine.others.into_iter().flatten());
-    let mut n = 0;
-    for g in kept.filter(|g| g.normal.dot(&first.normal) < cos) {
-        if n < MAX_OTHERS && others[..n].iter().flatten().all(|o: &Gap| g.normal.dot(&o.normal) < cos) {
-            others[n] = Some(g);
-            n += 1;
-        }
-    }
+    merge(first.normal, &mut others, &left);
     found[s] = Some(Found { first, others });
     feet[s] = Foot { mended: true, ..Foot::of(&first) };
 }
