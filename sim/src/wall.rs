@@ -78,11 +78,27 @@ pub struct WallParams {
     /// An untouched node closer than this to rest and slower than this per millisecond goes
     /// back to rest, mm (default 0.005).
     pub rest_mm: f64,
+    /// Dead band of the wall a frame carries, mm (default 0.001): a tip is written again only
+    /// once its displacement differs from the one last written by more than this, so the
+    /// slow tail of a bulge springing back does not rewrite thousands of tips every frame
+    /// (what a delta frame or a recording pays for); the detector sees a wall within this of
+    /// the simulated one. 0: every tip around an active node, every frame.
+    pub publish_mm: f64,
 }
 
 impl Default for WallParams {
     fn default() -> Self {
-        Self { node_spacing_mm: 12.0, stiffness_kpa_per_mm: 2.0, membrane_ratio: 2.0, areal_mass_kg_m2: 5.0, damping_per_s: 4000.0, max_out_mm: 15.0, spread_mm: 0.02, rest_mm: 0.005 }
+        Self {
+            node_spacing_mm: 12.0,
+            stiffness_kpa_per_mm: 2.0,
+            membrane_ratio: 2.0,
+            areal_mass_kg_m2: 5.0,
+            damping_per_s: 4000.0,
+            max_out_mm: 15.0,
+            spread_mm: 0.02,
+            rest_mm: 0.005,
+            publish_mm: 0.001,
+        }
     }
 }
 
@@ -150,6 +166,8 @@ pub struct Wall {
     live: Vec<u32>,
     next_live: Vec<u32>,
     stamp: Vec<u32>,
+    /// Displacement of each tip as last written (0: at rest), mm.
+    published: Vec<f32>,
     epoch: u32,
 }
 
@@ -231,6 +249,7 @@ impl Wall {
             live: Vec::new(),
             next_live: Vec::new(),
             stamp: vec![0; blocks],
+            published: vec![0.0; rings * spokes],
             epoch: 0,
         }
     }
@@ -520,9 +539,12 @@ impl Wall {
     }
 
     /// Calls `f(tip, spoke)` for every tip whose spoke may differ from what was written last
-    /// time: the tips of the blocks around active nodes (their current spokes) and, unless
-    /// `full` (the caller rewrites the whole rest colon itself), the tips of blocks that were
-    /// around active nodes last time and are not now (their rest spokes).
+    /// time: the tips of the blocks around active nodes (their current spokes, each unless it
+    /// is within [`WallParams::publish_mm`] of the one last written) and, unless `full` (the
+    /// caller rewrites the whole rest colon itself), the tips of blocks that were around active
+    /// nodes last time and are not now (their rest spokes). With `full`, every tip around an
+    /// active node is written, as last written where it is within the dead band: the frame is
+    /// the same whether the caller kept its buffer or not.
     pub fn write_spokes(&mut self, full: bool, mut f: impl FnMut(u32, [f32; 3])) {
         self.epoch = self.epoch.wrapping_add(1);
         if self.epoch == 0 {
@@ -530,6 +552,7 @@ impl Wall {
             self.epoch = 1;
         }
         let (cols, block_rows) = (self.cols, self.block_rings.len());
+        let band = self.params.publish_mm as f32;
         self.next_live.clear();
         for t in &self.active {
             let (q, c) = (t.node as usize / cols, t.node as usize % cols);
@@ -547,10 +570,19 @@ impl Wall {
                 }
             }
         }
-        if !full {
-            for &block in &self.live {
-                if self.stamp[block as usize] != self.epoch {
-                    self.for_block_tips(block, |tip| f(tip, self.rest[tip as usize]));
+        // Blocks no longer around an active node go back to rest (written by the caller when
+        // `full`).
+        for &block in &self.live {
+            if self.stamp[block as usize] != self.epoch {
+                let (rings, c) = self.block_of(block);
+                for i in rings {
+                    for &k in &self.block_spokes[c] {
+                        let tip = i * self.spokes as u32 + k;
+                        self.published[tip as usize] = 0.0;
+                        if !full {
+                            f(tip, self.rest[tip as usize]);
+                        }
+                    }
                 }
             }
         }
@@ -573,11 +605,22 @@ impl Wall {
                     let tip = i * self.spokes as u32 + k;
                     let rest = self.rest[tip as usize];
                     if !any {
+                        self.published[tip as usize] = 0.0;
                         f(tip, rest);
                         continue;
                     }
                     let wc = self.spoke_w[k as usize].1;
                     let u = (wc[0] * row[0] + wc[1] * row[1] + wc[2] * row[2]) as f32;
+                    let last = self.published[tip as usize];
+                    let u = if u != 0.0 && (u - last).abs() <= band {
+                        if !full {
+                            continue;
+                        }
+                        last
+                    } else {
+                        u
+                    };
+                    self.published[tip as usize] = u;
                     if u == 0.0 {
                         f(tip, rest);
                     } else {
@@ -590,10 +633,17 @@ impl Wall {
         std::mem::swap(&mut self.live, &mut self.next_live);
     }
 
-    fn for_block_tips(&self, block: u32, mut f: impl FnMut(u32)) {
+    /// The rings of block `block` and its node column.
+    fn block_of(&self, block: u32) -> (std::ops::Range<u32>, usize) {
         let (r, c) = (block as usize / self.cols, block as usize % self.cols);
         let (i0, i1) = self.block_rings[r];
-        for i in i0..i1 {
+        (i0..i1, c)
+    }
+
+    #[cfg(test)]
+    fn for_block_tips(&self, block: u32, mut f: impl FnMut(u32)) {
+        let (rings, c) = self.block_of(block);
+        for i in rings {
             for &k in &self.block_spokes[c] {
                 f(i * self.spokes as u32 + k);
             }
@@ -665,5 +715,80 @@ mod tests {
         }
         w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
         assert_eq!(state, t.radial);
+    }
+
+    #[test]
+    fn a_tip_is_rewritten_only_once_it_moves_past_the_dead_band() {
+        let t = tube();
+        let mut w = Wall::new(&t, WallParams { publish_mm: 0.001, ..WallParams::default() });
+        let tip = 50 * 32 + 3;
+        w.begin_frame();
+        w.touch_tip(tip);
+        w.settle(1e-3);
+        let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
+        w.push(s, 1.0);
+        let mut kept: Vec<[f32; 3]> = t.radial.clone();
+        w.write_spokes(false, |tip, sp| kept[tip as usize] = sp);
+        let written = |w: &mut Wall, full: bool, out: &mut Vec<[f32; 3]>| {
+            let mut n = 0;
+            w.write_spokes(full, |tip, sp| {
+                n += (out[tip as usize] != sp) as usize;
+                out[tip as usize] = sp;
+            });
+            n
+        };
+        // 0.5 um at the node: no tip moves by more than the band.
+        w.push(s, 0.0005);
+        assert_eq!(written(&mut w, false, &mut kept), 0);
+        // A buffer rewritten whole gets the same frame: the tips as last written.
+        let mut whole: Vec<[f32; 3]> = t.radial.clone();
+        w.write_spokes(true, |tip, sp| whole[tip as usize] = sp);
+        assert_eq!(whole, kept);
+        // Another 3 um: 3.5 um at the node since the tips were written; the tips it weighs most
+        // on (up to (3/4)^2) move past the band, the others stay within it of the wall.
+        w.push(s, 0.003);
+        let moved = written(&mut w, false, &mut kept);
+        assert!(moved > 0);
+        let u = w.tip_displacement(tip) as f32;
+        let d = w.tip_dir(tip);
+        let exact = [t.radial[tip as usize][0] + d.x as f32 * u, t.radial[tip as usize][1] + d.y as f32 * u, t.radial[tip as usize][2] + d.z as f32 * u];
+        assert!((0..3).all(|j| (kept[tip as usize][j] - exact[j]).abs() <= 1e-3), "{:?} against {exact:?}", kept[tip as usize]);
+    }
+
+    #[test]
+    fn a_kept_buffer_and_one_rewritten_whole_get_the_same_frames() {
+        // Two walls in step: one writes over the buffer it wrote last frame, the other over the
+        // rest colon every frame (a loaned buffer). A bulge springs back to rest, its blocks
+        // leave the live set, and a second push brings them back.
+        let t = tube();
+        let (mut a, mut b) = (Wall::new(&t, WallParams::default()), Wall::new(&t, WallParams::default()));
+        let mut kept: Vec<[f32; 3]> = t.radial.clone();
+        let tip = 50 * 32 + 3;
+        let h = 1e-3 / 16.0;
+        let mut left_rest = false;
+        for frame in 0..400 {
+            for w in [&mut a, &mut b] {
+                w.begin_frame();
+                if frame == 0 || frame == 300 {
+                    w.touch_tip(tip);
+                }
+                w.settle(1e-3);
+                if frame == 0 || frame == 300 {
+                    let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
+                    w.push(s, 3.0);
+                }
+                for _ in 0..16 {
+                    w.predict(h);
+                    w.solve(h);
+                    w.update_velocity(h);
+                }
+            }
+            left_rest |= a.active().is_empty();
+            a.write_spokes(false, |tip, sp| kept[tip as usize] = sp);
+            let mut whole: Vec<[f32; 3]> = t.radial.clone();
+            b.write_spokes(true, |tip, sp| whole[tip as usize] = sp);
+            assert_eq!(kept, whole, "frame {frame}");
+        }
+        assert!(left_rest, "the bulge never went back to rest");
     }
 }
