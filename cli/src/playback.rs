@@ -9,6 +9,7 @@
 use crate::recording::{self, BadMessage, RecordedReply, Recording, RecordingError, FRAMES_TOPIC};
 use lumen_proto::wire::FrameHeader;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Frames between two decoded states held in memory.
 pub const CHECKPOINT: usize = 64;
@@ -26,8 +27,9 @@ pub struct Playback {
     /// The recording (spec, session, replies by frame number).
     pub recording: Recording,
     frames: Vec<Stored>,
-    /// `checkpoints[k]`: the header and state of frame `k * CHECKPOINT`.
-    checkpoints: Vec<(FrameHeader, Vec<f32>)>,
+    /// `checkpoints[k]`: the header and state of frame `k * CHECKPOINT`, and the last frame
+    /// recorded whole at or before it (what an anchored key frame is against; shared).
+    checkpoints: Vec<(FrameHeader, Vec<f32>, Arc<Vec<f32>>)>,
 }
 
 /// Where a player is: the index of the frame `state` holds.
@@ -38,6 +40,8 @@ pub struct Cursor {
     pub state: Vec<f32>,
     /// The header of frame `index`.
     pub header: Option<FrameHeader>,
+    /// The last frame recorded whole at or before `index`.
+    anchor: Vec<f32>,
 }
 
 impl Cursor {
@@ -51,17 +55,21 @@ impl Playback {
     /// Reads `path` (checked as [`Recording::open`] checks it) and keeps its frames.
     pub fn load(path: &Path) -> Result<Self, RecordingError> {
         let recording = Recording::open(path)?;
-        let (mut frames, mut checkpoints, mut state) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut frames, mut checkpoints, mut state, mut anchor) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut shared = Arc::new(Vec::new());
         for m in recording::messages(path)? {
             let m = m?;
             if m.channel.topic != FRAMES_TOPIC {
                 continue;
             }
             let index = frames.len();
-            let header = recording::decode_frame(&m.data, &mut state)
+            let header = recording::decode_frame(&m.data, &mut state, &mut anchor)
                 .map_err(|source| RecordingError::NotLumen { path: path.to_owned(), what: BadMessage::Frame { index: Some(index as u64), sequence: m.sequence, source } })?;
             if index.is_multiple_of(CHECKPOINT) {
-                checkpoints.push((header, state.clone()));
+                if *shared != anchor {
+                    shared = Arc::new(anchor.clone());
+                }
+                checkpoints.push((header, state.clone(), shared.clone()));
             }
             frames.push(Stored { log_time_ns: m.log_time, bytes: m.data.into_owned() });
         }
@@ -100,25 +108,28 @@ impl Playback {
                 // The checkpoint is that frame decoded: a delta is against the frame before, so
                 // it is not decoded again.
                 let k = index / CHECKPOINT;
-                let (header, state) = &self.checkpoints[k];
+                let (header, state, anchor) = &self.checkpoints[k];
                 cursor.state.clear();
                 cursor.state.extend_from_slice(state);
+                cursor.anchor.clear();
+                cursor.anchor.extend_from_slice(anchor);
                 cursor.header = Some(*header);
                 k * CHECKPOINT + 1
             }
         };
         for i in from..=index {
-            cursor.header = Some(self.decode(i, &mut cursor.state)?);
+            cursor.header = Some(self.decode(i, &mut cursor.state, &mut cursor.anchor)?);
         }
         cursor.index = Some(index);
         Ok(())
     }
 
     /// Decodes frame `i` over `state` (the state of frame `i - 1`, or any state if frame `i` is
-    /// a key frame).
-    fn decode(&self, i: usize, state: &mut Vec<f32>) -> Result<FrameHeader, RecordingError> {
+    /// a key frame) and `anchor` (the last frame recorded whole before it).
+    fn decode(&self, i: usize, state: &mut Vec<f32>, anchor: &mut Vec<f32>) -> Result<FrameHeader, RecordingError> {
         let path = &self.recording.path;
-        recording::decode_frame(&self.frames[i].bytes, state).map_err(|source| RecordingError::NotLumen { path: path.clone(), what: BadMessage::Frame { index: Some(i as u64), sequence: 0, source } })
+        recording::decode_frame(&self.frames[i].bytes, state, anchor)
+            .map_err(|source| RecordingError::NotLumen { path: path.clone(), what: BadMessage::Frame { index: Some(i as u64), sequence: 0, source } })
     }
 }
 
@@ -147,7 +158,8 @@ mod tests {
     #[test]
     fn any_frame_in_any_order_equals_the_frame_recorded() {
         let path = std::env::temp_dir().join(format!("lumen_playback_{}.mcap", std::process::id()));
-        let frames = 3 * CHECKPOINT as u64 + 5;
+        // Past the first key frame after the whole one: an anchored key frame at KEY_EVERY.
+        let frames = crate::recording::KEY_EVERY + 3 * CHECKPOINT as u64 + 5;
         let mut w = Writer::create(&path, &spec(), 9, "test").unwrap();
         for k in 0..frames {
             w.frame(&header(k, 12), &state(k), 0).unwrap();
@@ -156,9 +168,13 @@ mod tests {
         let p = Playback::load(&path).unwrap();
         assert_eq!(p.len(), frames as usize);
         assert_eq!(p.log_time_ns(3), Some(4_000_000));
+        let kind = |i: usize| u32::from_le_bytes(p.frames[i].bytes[40..44].try_into().unwrap());
+        let key = crate::recording::KEY_EVERY as usize;
+        assert_eq!((kind(0), kind(1), kind(key - 1), kind(key), kind(key + 1)), (0, 3, 3, 4, 3));
         let mut c = Cursor::default();
-        // Forward by one, back across checkpoints, forward within one, past the end.
-        for i in [0usize, 1, 2, 150, 63, 64, 65, 130, 129, 192, 10_000, 0] {
+        // Forward by one, back across checkpoints, forward within one, across the anchored key
+        // frame from either side, past the end.
+        for i in [0usize, 1, 2, 150, 63, 64, 65, 130, 129, 192, 255, 256, 257, 300, 254, 256, 10_000, 0] {
             p.seek(&mut c, i).unwrap();
             let want = i.min(frames as usize - 1);
             assert_eq!(c.index(), Some(want));

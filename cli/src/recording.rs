@@ -1,8 +1,8 @@
 //! Recordings of a session in MCAP (the robotics log format: `mcap` tools, Foxglove): the
 //! scene spec, then every reply as the exact bytes it has on the wire, and every frame as its
 //! wire header and what changed since the frame recorded before it, coded as a delta frame is on
-//! the wire (`lumen_transport::delta`; a key frame with every float every [`KEY_EVERY`]
-//! frames). MCAP's chunks are zstd-compressed. A colonoscopy frame moves the scope and a few
+//! the wire (`lumen_transport::delta`; the first frame whole, and every [`KEY_EVERY`] frames a
+//! key frame coded against that first one). MCAP's chunks are zstd-compressed. A colonoscopy frame moves the scope and a few
 //! thousand wall tips: this keeps a recording to tens of kilobytes a frame instead of the whole
 //! colon. Reading restores each frame's exact bytes; recordings of the older run-coded deltas
 //! read as before.
@@ -17,8 +17,8 @@
 //! | topic | message encoding | schema | message |
 //! |---|---|---|---|
 //! | `/lumen/spec` | `json` | `jsonschema` | the [`SceneSpec`], once, first |
-//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then a key frame (`u32` 0, `floats` x f32) or a delta against the frame before (`u32` 3, then a scaled delta frame's payload: the 16-byte delta header and its zstd frame; files before it wrote `u32` 2 and a plain delta's payload, or `u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32) |
-//! | `/lumen/contacts` | `lumen-repr-c` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` |
+//! | `/lumen/frames` | `lumen-frame-delta` | `lumen.Frame` (text) | `FrameHeader` (40 bytes), then the first frame whole (`u32` 0, `floats` x f32), a delta against the frame before (`u32` 3, then a scaled delta frame's payload: the 16-byte delta header and its zstd frame) or a key frame coded the same against the first frame (`u32` 4); files before it wrote key frames whole, `u32` 2 and a plain delta's payload, or `u32` 1, `u32` runs, per run `u32` start, `u32` len, len x f32 |
+//! | `/lumen/contacts` | `lumen-contacts-planes` | `lumen.Contacts` (text) | `ContactsHeader` (256 bytes) + `count` x 88-byte `Contact` as byte planes ([`to_planes`]; older files `lumen-repr-c`, the wire bytes) |
 //! | `/lumen/summary` | `json` | `jsonschema` | counts and what the recorder missed, once, last |
 //! | `/lumen/scene` | `json` | `foxglove.SceneUpdate`, `jsonschema` (Foxglove's own schema) | at most 60 a second of log time, the scope as a line and the reply's contacts as arrows, and the colon as triangles on the first frame and then at most once a second (see [`crate::foxglove`]); left out by `lumen record --no-scene` ([`WriterOptions`]) |
 //!
@@ -54,6 +54,9 @@ pub const SCENE_TOPIC: &str = "/lumen/scene";
 /// Message and schema encoding of replies: the `#[repr(C)]` little-endian bytes of
 /// `proto/README.md`.
 pub const WIRE_ENCODING: &str = "lumen-repr-c";
+/// Message encoding of replies: the wire bytes with the contacts' bytes as planes
+/// ([`to_planes`]); files before it wrote [`WIRE_ENCODING`], the wire bytes as they are.
+pub const PLANES_ENCODING: &str = "lumen-contacts-planes";
 /// Message encoding of frames: the wire header, then the floats whole or as changed runs.
 pub const FRAME_ENCODING: &str = "lumen-frame-delta";
 /// A key frame (every float) at least this often, so a damaged message costs at most this many
@@ -77,20 +80,26 @@ per ring its control point x y z then its radial vectors x y z; rod: x y z per p
 as proto/README.md section 2 ('Delta frames') gives it (flags delta and scaled): u64 base,
 u32 changed rows, u32 encoded, then one zstd frame of the changed rows' bitmap, their scales'
 byte planes and their floats' byte planes;
-2 (earlier v3 files) = the same with a plain delta (flag delta alone: no scales);
+4 = an anchored key frame: the same, against the last key frame of kind 0 on this topic (the
+recording's first message) instead of the message before;
+2 (earlier v3 files) = the same as 3 with a plain delta (flag delta alone: no scales);
 1 (v2 files) = delta, followed by u32 runs, then per run u32 start, u32 len, len x f32: the
 floats [start, start + len) that differ from the message before; the others are as there.
-The first message is a key frame, and one comes at least every 256.
+The first message is a key frame of kind 0, and a key frame (kind 4; earlier files kind 0)
+comes at least every 256: a reader starts at any key frame with the first message alone.
 ";
 
 /// Schema text of [`CONTACTS_TOPIC`].
 pub const CONTACTS_SCHEMA: &str = "\
-lumen.Contacts v1, little-endian, the bytes of proto/README.md section 3:
+lumen.Contacts v2, little-endian, the bytes of proto/README.md section 3:
 ContactsHeader (256 bytes): 0 u32 magic 'LMNC' | 4 u16 version | 6 u16 status | 8 u64 session |
 16 u64 frame | 24 u64 client_time_ns | 32 u32 detect_ns | 36 u32 count | 40 u32 skipped |
 44 u32 error_body | 48 u32 error_index | 52 u32 error_spoke | 56 u16 message_len | 58 u16 flags |
 60 u8[196] message
-then count x Contact (88 bytes): 0 u16 pair | 2 u8 kind | 3 u8 flags | 4 u16 body_a | 6 u16 body_b |
+then the count contacts of 88 bytes each as planes (message encoding lumen-contacts-planes): byte j
+of contact i at 256 + j * count + i, so that like bytes of every contact lie together for the
+chunk's zstd (files before it, message encoding lumen-repr-c: the contacts one after another,
+contact i's byte j at 256 + 88 * i + j). A Contact: 0 u16 pair | 2 u8 kind | 3 u8 flags | 4 u16 body_a | 6 u16 body_b |
 8 u32 sample | 12 u32 segment_a | 16 f32 param_a | 20 u32 index_b | 24 u32 spoke_b | 28 f32 param_b |
 32 f32[4] weights_b | 48 f32[3] point_a | 60 f32[3] point_b | 72 f32[3] normal | 84 f32 depth
 ";
@@ -160,7 +169,7 @@ pub enum FrameDecodeError {
     /// A key frame whose floats are not the header's count.
     #[error("key frame of {bytes} bytes for {floats} floats")]
     KeyFrameLength { bytes: usize, floats: usize },
-    /// A coded delta (kind 2 or 3) that does not decode.
+    /// A coded delta (kind 2, 3 or 4) that does not decode.
     #[error("{0}")]
     Delta(String),
     /// A delta whose frame before has another size (or is missing).
@@ -172,8 +181,11 @@ pub enum FrameDecodeError {
     /// Bytes left after the last run of a delta.
     #[error("{0} bytes after the last run")]
     Trailing(usize),
-    /// Neither key (0) nor delta (1, 2 or 3).
-    #[error("unknown frame kind {0} (0 key, 1, 2 or 3 delta)")]
+    /// An anchored key frame (kind 4) with no whole frame of its size before it.
+    #[error("an anchored key frame for {floats} floats after a whole frame of {anchor} (none before it)")]
+    AnchoredWithoutWhole { floats: usize, anchor: usize },
+    /// Neither key (0 or 4) nor delta (1, 2 or 3).
+    #[error("unknown frame kind {0} (0 or 4 key, 1, 2 or 3 delta)")]
     UnknownKind(u32),
 }
 
@@ -249,9 +261,14 @@ pub struct Writer {
     sequence: u32,
     written: Written,
     buf: Vec<u8>,
+    /// A reply's wire bytes, before [`to_planes`].
+    wire: Vec<u8>,
     /// The last recorded frame's floats, what the next delta is against, and its number.
     last: Vec<f32>,
     last_frame: u64,
+    /// The last frame recorded whole, what the next key frame is coded against, and its number.
+    anchor: Vec<f32>,
+    anchor_frame: u64,
     encoder: Encoder,
     since_key: u64,
     scene: Option<SceneChannel>,
@@ -294,7 +311,7 @@ impl Writer {
         let frame_schema = mcap.add_schema("lumen.Frame", FRAME_ENCODING, FRAME_SCHEMA.as_bytes()).map_err(wr)?;
         let frames_channel = mcap.add_channel(frame_schema, FRAMES_TOPIC, FRAME_ENCODING, &none).map_err(wr)?;
         let contacts_schema = mcap.add_schema("lumen.Contacts", WIRE_ENCODING, CONTACTS_SCHEMA.as_bytes()).map_err(wr)?;
-        let contacts_channel = mcap.add_channel(contacts_schema, CONTACTS_TOPIC, WIRE_ENCODING, &none).map_err(wr)?;
+        let contacts_channel = mcap.add_channel(contacts_schema, CONTACTS_TOPIC, PLANES_ENCODING, &none).map_err(wr)?;
         let scene = if options.scene {
             let schema = mcap.add_schema(SCENE_UPDATE, "jsonschema", SCENE_UPDATE_SCHEMA.as_bytes()).map_err(wr)?;
             let channel = mcap.add_channel(schema, SCENE_TOPIC, "json", &none).map_err(wr)?;
@@ -315,8 +332,11 @@ impl Writer {
             sequence: 1,
             written: Written::default(),
             buf: Vec::new(),
+            wire: Vec::new(),
             last: Vec::new(),
             last_frame: 0,
+            anchor: Vec::new(),
+            anchor_frame: 0,
             encoder,
             since_key: 0,
             scene,
@@ -327,10 +347,17 @@ impl Writer {
     /// (nanoseconds since the Unix epoch, see [`wall_ns`]).
     pub fn frame(&mut self, header: &FrameHeader, state: &[f32], receive_ns: u64) -> Result<(), RecordingError> {
         // Whole rows only are delta-coded (a state always is; anything else goes whole).
-        let key = self.last.len() != state.len() || self.since_key + 1 >= KEY_EVERY || !state.len().is_multiple_of(3);
+        let whole = self.anchor.len() != state.len() || !state.len().is_multiple_of(3);
+        let key = whole || self.since_key + 1 >= KEY_EVERY;
         self.since_key = if key { 0 } else { self.since_key + 1 };
+        let coding = match (whole, key) {
+            (true, _) => Coding::Whole,
+            (false, true) => Coding::Anchored,
+            (false, false) => Coding::Delta,
+        };
         self.buf.clear();
-        encode_frame_message(header, (&mut self.last, self.last_frame), state, key, &mut self.encoder, &mut self.buf).map_err(|source| RecordingError::Delta { path: self.path.clone(), source })?;
+        encode_frame_message(header, (&mut self.last, self.last_frame), (&mut self.anchor, &mut self.anchor_frame), state, coding, &mut self.encoder, &mut self.buf)
+            .map_err(|source| RecordingError::Delta { path: self.path.clone(), source })?;
         self.last_frame = header.frame;
         self.put(self.frames_channel, header.client_time_ns, receive_ns, false)?;
         self.written.frames += 1;
@@ -347,9 +374,11 @@ impl Writer {
 
     /// Appends one reply as it was on the wire.
     pub fn contacts(&mut self, header: &ContactsHeader, contacts: &[Contact], receive_ns: u64) -> Result<(), RecordingError> {
-        self.buf.clear();
+        self.wire.clear();
         let mut h = *header;
-        wire::encode_contacts(&mut h, contacts, &mut self.buf);
+        wire::encode_contacts(&mut h, contacts, &mut self.wire);
+        self.buf.clear();
+        to_planes(&self.wire, &mut self.buf);
         self.put(self.contacts_channel, header.client_time_ns, receive_ns, false)?;
         self.written.replies += 1;
         self.written.contacts += contacts.len() as u64;
@@ -463,7 +492,7 @@ impl Recording {
         let mut spec: Option<SceneSpec> = None;
         let (mut frames, mut replies) = (0u64, HashMap::new());
         let (mut session, mut missed) = (0u64, None);
-        let (mut decoded, mut state) = (Vec::new(), Vec::new());
+        let (mut decoded, mut state, mut anchor, mut wire_bytes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for message in messages(path)? {
             let m = message?;
             match m.channel.topic.as_str() {
@@ -478,11 +507,18 @@ impl Recording {
                     missed = Some(Missed { frames: get("missed_frames"), replies: get("missed_replies") });
                 }
                 FRAMES_TOPIC => {
-                    decode_frame(&m.data, &mut state).map_err(|source| not_lumen(BadMessage::Frame { index: Some(frames), sequence: m.sequence, source }))?;
+                    decode_frame(&m.data, &mut state, &mut anchor).map_err(|source| not_lumen(BadMessage::Frame { index: Some(frames), sequence: m.sequence, source }))?;
                     frames += 1;
                 }
                 CONTACTS_TOPIC => {
-                    let h = wire::decode_contacts(&m.data, &mut decoded).map_err(|source| not_lumen(BadMessage::Reply { sequence: m.sequence, source }))?;
+                    let bytes = match m.channel.message_encoding.as_str() {
+                        PLANES_ENCODING => {
+                            from_planes(&m.data, &mut wire_bytes);
+                            &wire_bytes[..]
+                        }
+                        _ => &m.data[..],
+                    };
+                    let h = wire::decode_contacts(bytes, &mut decoded).map_err(|source| not_lumen(BadMessage::Reply { sequence: m.sequence, source }))?;
                     replies.insert(h.frame, RecordedReply { header: h, contacts: std::mem::take(&mut decoded) });
                 }
                 _ => {}
@@ -495,11 +531,11 @@ impl Recording {
     /// The frames in file order, read one at a time.
     pub fn frames(&self) -> Result<impl Iterator<Item = Result<RecordedFrame, RecordingError>>, RecordingError> {
         let path = self.path.clone();
-        let mut state = Vec::new();
+        let (mut state, mut anchor) = (Vec::new(), Vec::new());
         Ok(messages(&self.path)?.filter_map(move |m| match m {
             Err(e) => Some(Err(e)),
             Ok(m) if m.channel.topic == FRAMES_TOPIC => Some(
-                decode_frame(&m.data, &mut state)
+                decode_frame(&m.data, &mut state, &mut anchor)
                     .map(|header| RecordedFrame { header, state: state.clone(), log_time_ns: m.log_time })
                     .map_err(|source| RecordingError::NotLumen { path: path.clone(), what: BadMessage::Frame { index: None, sequence: m.sequence, source } }),
             ),
@@ -533,20 +569,52 @@ fn is_short_or_not_mcap(path: &Path) -> bool {
     }
 }
 
-/// Appends the frame message of `header` and `state`: a key frame, or a delta against `last`
-/// (the floats of the message before, and its frame number); `last` becomes `state`.
-fn encode_frame_message(header: &FrameHeader, last: (&mut Vec<f32>, u64), state: &[f32], key: bool, encoder: &mut Encoder, out: &mut Vec<u8>) -> Result<(), DeltaError> {
+/// How a frame message is coded ([`encode_frame_message`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Coding {
+    /// Every float (kind 0); it becomes the anchor.
+    Whole,
+    /// A delta against the anchor (kind 4): a key frame that needs no message but the anchor.
+    Anchored,
+    /// A delta against the frame before (kind 3, or 2 for plain rows).
+    Delta,
+}
+
+/// Appends the frame message of `header` and `state`, coded as `coding` says against `last`
+/// (the floats of the message before, and its frame number) or `anchor` (the last whole frame's
+/// floats and number); `last` becomes `state`, and `anchor` too where it is written whole.
+fn encode_frame_message(
+    header: &FrameHeader,
+    last: (&mut Vec<f32>, u64),
+    anchor: (&mut Vec<f32>, &mut u64),
+    state: &[f32],
+    coding: Coding,
+    encoder: &mut Encoder,
+    out: &mut Vec<u8>,
+) -> Result<(), DeltaError> {
     let (last, last_frame) = last;
     out.extend_from_slice(&header.to_bytes());
-    if key {
-        out.extend_from_slice(&0u32.to_le_bytes());
-        last.clear();
-        last.extend_from_slice(state);
-        state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
-    } else {
-        out.extend_from_slice(&(if encoder.rows() == Rows::Scaled { 3u32 } else { 2 }).to_le_bytes());
-        encoder.encode(last_frame, last, state, out)?;
-        encoder.apply_last(last);
+    match coding {
+        Coding::Whole => {
+            out.extend_from_slice(&0u32.to_le_bytes());
+            state.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+            anchor.0.clear();
+            anchor.0.extend_from_slice(state);
+            *anchor.1 = header.frame;
+            last.clear();
+            last.extend_from_slice(state);
+        }
+        Coding::Anchored => {
+            out.extend_from_slice(&4u32.to_le_bytes());
+            encoder.encode(*anchor.1, anchor.0, state, out)?;
+            last.clear();
+            last.extend_from_slice(state);
+        }
+        Coding::Delta => {
+            out.extend_from_slice(&(if encoder.rows() == Rows::Scaled { 3u32 } else { 2 }).to_le_bytes());
+            encoder.encode(last_frame, last, state, out)?;
+            encoder.apply_last(last);
+        }
     }
     Ok(())
 }
@@ -557,8 +625,9 @@ thread_local! {
 }
 
 /// Decodes a frame message into its header and `state` (which holds the frame decoded before
-/// it on the topic, and becomes this one's floats).
-pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHeader, FrameDecodeError> {
+/// it on the topic, and becomes this one's floats); `anchor` holds the last whole frame decoded
+/// (what an anchored key frame is against), and becomes this one's floats if it is whole.
+pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>, anchor: &mut Vec<f32>) -> Result<FrameHeader, FrameDecodeError> {
     let header = FrameHeader::read(bytes)?;
     let mut r = Words(&bytes[wire::FRAME_HEADER_BYTES..]);
     let floats = header.floats as usize;
@@ -570,6 +639,8 @@ pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHe
             }
             state.clear();
             state.extend(body.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+            anchor.clear();
+            anchor.extend_from_slice(state);
         }
         1 => {
             if state.len() != floats {
@@ -588,8 +659,15 @@ pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHe
                 return Err(FrameDecodeError::Trailing(r.0.len()));
             }
         }
-        kind @ (2 | 3) => {
-            let coding = if kind == 3 { Rows::Scaled } else { Rows::Plain };
+        kind @ (2..=4) => {
+            let coding = if kind == 2 { Rows::Plain } else { Rows::Scaled };
+            if kind == 4 {
+                if anchor.len() != floats {
+                    return Err(FrameDecodeError::AnchoredWithoutWhole { floats, anchor: anchor.len() });
+                }
+                state.clear();
+                state.extend_from_slice(anchor);
+            }
             if state.len() != floats {
                 return Err(FrameDecodeError::DeltaWithoutKey { floats, before: state.len() });
             }
@@ -607,6 +685,45 @@ pub(crate) fn decode_frame(bytes: &[u8], state: &mut Vec<f32>) -> Result<FrameHe
         k => return Err(FrameDecodeError::UnknownKind(k)),
     }
     Ok(header)
+}
+
+/// A reply's wire bytes (`ContactsHeader`, then `count` contacts of [`CONTACT_BYTES`]) with
+/// the contacts' bytes as planes: byte `j` of contact `i` at `256 + j * count + i`. Like bytes
+/// of every contact (a flag, the high byte of a coordinate) then lie together, and the chunk's
+/// zstd makes a recorded reply about a third smaller than as it is on the wire. A body that is
+/// not whole contacts is copied as it is (and refused by the reader as on the wire).
+pub fn to_planes(wire: &[u8], out: &mut Vec<u8>) {
+    transpose(wire, out, true);
+}
+
+/// The wire bytes of a reply [`to_planes`] wrote.
+pub fn from_planes(planes: &[u8], out: &mut Vec<u8>) {
+    transpose(planes, out, false);
+}
+
+/// The header as it is, then the body as an `n x 88` byte matrix transposed (`forth`) or back.
+fn transpose(bytes: &[u8], out: &mut Vec<u8>, forth: bool) {
+    out.clear();
+    let split = wire::CONTACTS_HEADER_BYTES.min(bytes.len());
+    let (head, body) = bytes.split_at(split);
+    out.extend_from_slice(head);
+    if !body.len().is_multiple_of(CONTACT_BYTES) {
+        out.extend_from_slice(body);
+        return;
+    }
+    let n = body.len() / CONTACT_BYTES;
+    out.resize(split + body.len(), 0);
+    let dst = &mut out[split..];
+    for i in 0..n {
+        for j in 0..CONTACT_BYTES {
+            let (contact, plane) = (i * CONTACT_BYTES + j, j * n + i);
+            if forth {
+                dst[plane] = body[contact];
+            } else {
+                dst[contact] = body[plane];
+            }
+        }
+    }
 }
 
 /// Little-endian `u32`s read off the front of a byte slice.
@@ -660,21 +777,24 @@ mod tests {
         FrameHeader::new(7, frame, 0, floats, 1)
     }
 
+    /// Frame `h` whole (`key`) or as a delta against `last`.
     fn message(h: &FrameHeader, last: &mut Vec<f32>, state: &[f32], key: bool) -> Vec<u8> {
         let mut out = Vec::new();
-        encode_frame_message(h, (last, h.frame.saturating_sub(1)), state, key, &mut Encoder::new().unwrap(), &mut out).unwrap();
+        let coding = if key { Coding::Whole } else { Coding::Delta };
+        encode_frame_message(h, (last, h.frame.saturating_sub(1)), (&mut Vec::new(), &mut 0), state, coding, &mut Encoder::new().unwrap(), &mut out).unwrap();
         out
     }
 
     #[test]
     fn deltas_restore_every_bit_and_stay_small() {
+        let mut anchor = Vec::new();
         // Sparse changes, runs at both ends, a gap of one unchanged float inside a run, and
         // values only bits tell apart (NaN payloads, -0.0).
         let mut state: Vec<f32> = (0..1002).map(|i| i as f32 * 0.5).collect();
         let mut last = Vec::new();
         let mut decoded = Vec::new();
         let key = message(&header(0, 1002), &mut last, &state, true);
-        decode_frame(&key, &mut decoded).unwrap();
+        decode_frame(&key, &mut decoded, &mut anchor).unwrap();
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&decoded), bits(&state));
         for f in 1..20u64 {
@@ -685,7 +805,7 @@ mod tests {
             state[(f as usize * 37) % 1000] += 1.0;
             let m = message(&header(f, 1002), &mut last, &state, false);
             assert!(m.len() < wire::FRAME_HEADER_BYTES + 4 + 16 + 120, "{} bytes", m.len());
-            let h = decode_frame(&m, &mut decoded).unwrap();
+            let h = decode_frame(&m, &mut decoded, &mut anchor).unwrap();
             assert_eq!(h.frame, f);
             assert_eq!(bits(&decoded), bits(&state), "frame {f}");
         }
@@ -694,52 +814,140 @@ mod tests {
         assert!(m.len() < wire::FRAME_HEADER_BYTES + 4 + 16 + 40, "{} bytes", m.len());
         // A coded delta cut short or corrupted is named.
         let m = message(&header(21, 1002), &mut last, &state, false);
-        let err = decode_frame(&m[..m.len() - 3], &mut decoded).unwrap_err().to_string();
+        let err = decode_frame(&m[..m.len() - 3], &mut decoded, &mut anchor).unwrap_err().to_string();
         assert!(err.contains("coded bytes"), "{err}");
     }
 
     #[test]
     fn deltas_are_written_scaled_and_earlier_plain_ones_still_read() {
+        let mut anchor = Vec::new();
         let base: Vec<f32> = (0..300).map(|i| 10.0 + i as f32 * 0.25).collect();
         let lengthened: Vec<f32> = base.iter().map(|v| v * 1.001).collect();
         let kind = |m: &[u8]| u32::from_le_bytes(m[wire::FRAME_HEADER_BYTES..wire::FRAME_HEADER_BYTES + 4].try_into().unwrap());
         let (mut last, mut decoded) = (Vec::new(), Vec::new());
-        decode_frame(&message(&header(0, 300), &mut last, &base, true), &mut decoded).unwrap();
+        decode_frame(&message(&header(0, 300), &mut last, &base, true), &mut decoded, &mut anchor).unwrap();
         let scaled = message(&header(1, 300), &mut last.clone(), &lengthened, false);
         assert_eq!(kind(&scaled), 3);
         let mut plain = Vec::new();
-        encode_frame_message(&header(1, 300), (&mut last, 0), &lengthened, false, &mut Encoder::with_rows(Rows::Plain).unwrap(), &mut plain).unwrap();
+        encode_frame_message(&header(1, 300), (&mut last, 0), (&mut Vec::new(), &mut 0), &lengthened, Coding::Delta, &mut Encoder::with_rows(Rows::Plain).unwrap(), &mut plain).unwrap();
         assert_eq!(kind(&plain), 2);
         assert!(scaled.len() < plain.len(), "scaled {} bytes, plain {}", scaled.len(), plain.len());
         for m in [&scaled, &plain] {
             let mut state = decoded.clone();
-            decode_frame(m, &mut state).unwrap();
+            decode_frame(m, &mut state, &mut anchor).unwrap();
             assert!(state.iter().zip(&lengthened).all(|(a, b)| a.to_bits() == b.to_bits()));
         }
     }
 
     #[test]
     fn broken_frame_messages_are_named() {
+        let mut anchor = Vec::new();
         let state = vec![1.0f32; 10];
         let mut last = Vec::new();
         let key = message(&header(0, 10), &mut last, &state, true);
         let mut decoded = Vec::new();
+        // An anchored key frame with no whole frame before it.
+        let mut anchored = Vec::new();
+        let six = vec![2.0f32; 12];
+        encode_frame_message(&header(5, 12), (&mut six.clone(), 4), (&mut six.clone(), &mut 0), &six, Coding::Anchored, &mut Encoder::new().unwrap(), &mut anchored).unwrap();
+        assert!(decode_frame(&anchored, &mut decoded, &mut anchor).unwrap_err().to_string().contains("anchored key frame for 12 floats"));
         // A delta with nothing before it (the run-coded kind of older files).
         let mut delta = header(1, 10).to_bytes().to_vec();
         delta.extend_from_slice(&1u32.to_le_bytes());
         delta.extend_from_slice(&0u32.to_le_bytes());
-        assert!(decode_frame(&delta, &mut decoded).unwrap_err().to_string().contains("no key frame"));
-        decode_frame(&key, &mut decoded).unwrap();
+        assert!(decode_frame(&delta, &mut decoded, &mut anchor).unwrap_err().to_string().contains("no key frame"));
+        decode_frame(&key, &mut decoded, &mut anchor).unwrap();
         // A run beyond the frame, a cut message, an unknown kind, a short key frame.
         let mut beyond = header(1, 10).to_bytes().to_vec();
         for w in [1u32, 1, 8, 3, 0, 0, 0] {
             beyond.extend_from_slice(&w.to_le_bytes());
         }
-        assert!(decode_frame(&beyond, &mut decoded).unwrap_err().to_string().contains("beyond"));
-        assert!(decode_frame(&beyond[..beyond.len() - 2], &mut decoded).is_err());
+        assert!(decode_frame(&beyond, &mut decoded, &mut anchor).unwrap_err().to_string().contains("beyond"));
+        assert!(decode_frame(&beyond[..beyond.len() - 2], &mut decoded, &mut anchor).is_err());
         let mut kind = header(1, 10).to_bytes().to_vec();
         kind.extend_from_slice(&9u32.to_le_bytes());
-        assert!(decode_frame(&kind, &mut decoded).unwrap_err().to_string().contains("unknown frame kind 9"));
-        assert!(decode_frame(&key[..key.len() - 4], &mut decoded).unwrap_err().to_string().contains("key frame"));
+        assert!(decode_frame(&kind, &mut decoded, &mut anchor).unwrap_err().to_string().contains("unknown frame kind 9"));
+        assert!(decode_frame(&key[..key.len() - 4], &mut decoded, &mut anchor).unwrap_err().to_string().contains("key frame"));
+    }
+
+    fn spec() -> SceneSpec {
+        use lumen_proto::{BodySpec, Shape};
+        SceneSpec::new(vec![BodySpec { name: "scope".into(), shape: Shape::Rod { points: 4, radius: vec![1.0] } }], Vec::<lumen_proto::PairSpec>::new())
+    }
+
+    /// Reply `k`: `k % 5` contacts whose every field differs from contact to contact.
+    fn reply(k: u64) -> (ContactsHeader, Vec<Contact>) {
+        let h = ContactsHeader::reply_to(&FrameHeader::new(7, k, 1_000 * (k + 1), 12, 1));
+        let c = |i: u32| {
+            let f = (k * 7 + i as u64) as f32;
+            Contact {
+                pair: i as u16,
+                kind: (i % 3) as u8,
+                flags: i as u8,
+                body_a: 0,
+                body_b: 1,
+                sample: i * 9,
+                segment_a: i,
+                param_a: 0.25,
+                index_b: 100 + i,
+                spoke_b: i % 32,
+                param_b: 0.5,
+                weights_b: [0.1, 0.2, 0.3, 0.4],
+                point_a: [f, -f, 0.5 * f],
+                point_b: [f + 0.1, 3.0, -2.0],
+                normal: [0.6, 0.8, 0.0],
+                depth: -0.01 * f,
+            }
+        };
+        (h, (0..(k % 5) as u32).map(c).collect())
+    }
+
+    #[test]
+    fn replies_are_written_as_planes_and_read_back_exactly_and_older_files_still_read() {
+        for n in [0usize, 1, 3, 64] {
+            let wire_bytes: Vec<u8> = (0..wire::CONTACTS_HEADER_BYTES + n * CONTACT_BYTES).map(|i| (i * 31 % 251) as u8).collect();
+            let (mut planes, mut back) = (Vec::new(), Vec::new());
+            to_planes(&wire_bytes, &mut planes);
+            assert_eq!(planes.len(), wire_bytes.len());
+            if n > 1 {
+                assert_ne!(planes, wire_bytes);
+                // Byte 2 (the kind) of contact 1 is in plane 2.
+                assert_eq!(planes[wire::CONTACTS_HEADER_BYTES + 2 * n + 1], wire_bytes[wire::CONTACTS_HEADER_BYTES + CONTACT_BYTES + 2]);
+            }
+            from_planes(&planes, &mut back);
+            assert_eq!(back, wire_bytes, "{n} contacts");
+        }
+        let dir = std::env::temp_dir().join(format!("lumen_recording_planes_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (new, old) = (dir.join("planes.mcap"), dir.join("repr-c.mcap"));
+        let mut w = Writer::create_with(&new, &spec(), 7, "test", WriterOptions { scene: false }).unwrap();
+        for k in 0..12 {
+            let (h, c) = reply(k);
+            w.contacts(&h, &c, 1).unwrap();
+        }
+        w.finish(Missed::default()).unwrap();
+        // The same replies as an older recorder wrote them: the wire bytes as they are.
+        let mut m = mcap::WriteOptions::new().create(BufWriter::new(File::create(&old).unwrap())).unwrap();
+        let none = BTreeMap::new();
+        let spec_channel = m.add_channel(0, SPEC_TOPIC, "json", &none).unwrap();
+        let contacts_channel = m.add_channel(0, CONTACTS_TOPIC, WIRE_ENCODING, &none).unwrap();
+        m.write_to_known_channel(&MessageHeader { channel_id: spec_channel, sequence: 0, log_time: 0, publish_time: 0 }, serde_json::to_string(&spec()).unwrap().as_bytes()).unwrap();
+        for k in 0..12 {
+            let (mut h, c) = reply(k);
+            let mut b = Vec::new();
+            wire::encode_contacts(&mut h, &c, &mut b);
+            m.write_to_known_channel(&MessageHeader { channel_id: contacts_channel, sequence: k as u32 + 1, log_time: k, publish_time: 0 }, &b).unwrap();
+        }
+        m.finish().unwrap();
+        drop(m);
+        for path in [&new, &old] {
+            let r = Recording::open(path).unwrap();
+            assert_eq!(r.replies.len(), 12);
+            for k in 0..12 {
+                let (h, c) = reply(k);
+                compare_replies((&h, &c), &r.replies[&k]).unwrap_or_else(|e| panic!("{}: reply {k}: {e}", path.display()));
+            }
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
