@@ -40,6 +40,13 @@
 //! through a slot table; the state writer visits only the blocks of tips around active nodes
 //! (a block: the tips whose nearest node is the same) and rewrites to rest the blocks that were
 //! around them last frame.
+//!
+//! **What a frame carries changes little.** A tip is written again only once its displacement
+//! has moved more than [`WallParams::publish_mm`] (1 um) from the one last written: a bulge
+//! springing back moves thousands of tips by less than that a frame, and a client sending what
+//! changed (a delta frame, a recording) would pay for every one of them. The detector sees a
+//! wall within 1 um of the simulated one, fifty times finer than the detector's own depth
+//! target.
 
 use lumen_detect::Tube;
 use lumen_detect::V3d;
