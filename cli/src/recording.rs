@@ -1,11 +1,12 @@
 //! Recordings of a session in MCAP (the robotics log format: `mcap` tools, Foxglove): the
-//! scene spec, then every reply as the exact bytes it has on the wire, and every frame as its
-//! wire header and what changed since the frame recorded before it, coded as a delta frame is on
-//! the wire (`lumen_transport::delta`; the first frame whole, and every [`KEY_EVERY`] frames a
-//! key frame coded against that first one). MCAP's chunks are zstd-compressed. A colonoscopy frame moves the scope and a few
-//! thousand wall tips: this keeps a recording to tens of kilobytes a frame instead of the whole
-//! colon. Reading restores each frame's exact bytes; recordings of the older run-coded deltas
-//! read as before.
+//! scene spec, then every reply as the bytes it has on the wire (its contacts' bytes reordered
+//! into planes, [`to_planes`]), and every frame as its wire header and what changed since the
+//! frame recorded before it, coded as a delta frame is on the wire (`lumen_transport::delta`;
+//! the first frame whole, and every [`KEY_EVERY`] frames a key frame coded against that first
+//! one). MCAP's chunks are zstd-compressed. A colonoscopy frame moves the scope and a few
+//! thousand wall tips: this keeps a recording to about ten kilobytes a frame instead of the
+//! whole colon. Reading restores each frame's and reply's exact bytes; recordings of the older
+//! codings read as before.
 //!
 //! - [`Writer`]: what `lumen record` writes through (one frame / reply at a time).
 //! - [`Recording`]: a recording read back and checked ([`Recording::open`]), its replies by
