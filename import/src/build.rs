@@ -141,6 +141,13 @@ pub struct ImportReport {
     /// ([`Tube::clip_folds`]; after the fidelity measure): where the bend is tighter than any
     /// tilt clears, or where inflated loops press on each other.
     pub clipped: lumen_detect::model::FoldReport,
+    /// Spoke tips, after inflation and clipping, inside another part of the lumen, far along it
+    /// ([`Tube::overlaps`]): loops inflated past the space between them, side by side, where
+    /// no ring plane crosses another inside the lumen (so the fold check sees nothing). A point
+    /// there lies in the sections of both parts. Reported, not refused: the real colon
+    /// inflated twice and four times overlaps, and those are the wide lumens a simulator is
+    /// tried on.
+    pub overlaps: lumen_detect::model::OverlapReport,
     /// When spokes crossed on the given midline, the import also sliced the midline re-traced
     /// through the middle of the lumen ([`crate::axis`]) and kept the better of the two: what
     /// that try gave. `None`: nothing crossed, or no path could be traced.
@@ -316,6 +323,12 @@ impl fmt::Display for ImportReport {
         if !self.spokes_tried.is_empty() {
             let tried: Vec<String> = self.spokes_tried.iter().map(|(b, p99)| format!("{b} ({p99:.2} mm)")).collect();
             write!(f, " Spokes a ring raised for a wall within {:.2} mm of the surface at p99: {}; kept {}.", self.fidelity_target, tried.join(", "), self.spokes)?;
+        }
+        let o = &self.overlaps;
+        if o.tips > 0 {
+            write!(f, " {} spoke tips of {} rings lie inside another part of the lumen, up to {} rings along it: loops side by side overlap (inflated past the space between them), and a point there lies in two sections.", o.tips, o.rings, o.farthest)?;
+        } else {
+            write!(f, " No spoke tip lies inside another part of the lumen.")?;
         }
         if self.flipped {
             write!(f, " The surface's normals faced its lumen; it was read flipped.")?;
@@ -860,5 +873,6 @@ fn build_along(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> R
     let tried = candidates.len();
     let (tube, mut report) = candidates.swap_remove(pick);
     report.widths_tried = tried;
+    report.overlaps = tube.overlaps();
     Ok((tube, report))
 }

@@ -425,3 +425,25 @@ fn spokes_are_raised_until_the_wall_is_true_to_the_surface() {
     let best = fine.spokes_tried.iter().map(|t| t.1).fold(f64::INFINITY, f64::min);
     assert_eq!(fine.fidelity.p99, best);
 }
+
+#[test]
+fn loops_inflated_past_the_space_between_them_are_reported_as_overlapping() {
+    // Two 10 mm lumens, axes 25 mm apart (5 mm of tissue between the walls), one colon up the
+    // first and down the second. As imported their parts keep apart; inflated 1.6 times (16 mm
+    // spokes) each leg's wall reaches 7 mm into the other, side by side, where no ring plane
+    // crosses another inside the lumen.
+    let mesh = merge(&cylinder(0.0, 10.0, 100.0, 64, 20), &cylinder(25.0, 10.0, 100.0, 64, 20));
+    let params = ImportParams { widest_smoothing_mm: 4.0, ..Default::default() };
+    let (_, apart) = build_tube(&mesh, &hairpin(0.0, 25.0), &params).unwrap();
+    eprintln!("{apart}");
+    assert_eq!(apart.overlaps.tips, 0, "{apart}");
+    assert!(apart.to_string().contains("No spoke tip lies inside another part of the lumen"), "{apart}");
+    let (_, inflated) = build_tube(&mesh, &hairpin(0.0, 25.0), &ImportParams { inflate: 1.6, ..params }).unwrap();
+    eprintln!("{inflated}");
+    let o = inflated.overlaps;
+    // The spokes towards the other leg, along the legs (547 tips of 81 rings when written);
+    // the farthest pairs are a leg's bottom and the other's.
+    assert!(o.tips >= 300 && o.rings >= 60 && o.farthest >= 100, "{o:?}\n{inflated}");
+    assert_eq!(inflated.folds.spokes, 0, "{inflated}");
+    assert!(inflated.to_string().contains(&format!("{} spoke tips of {} rings lie inside another part of the lumen", o.tips, o.rings)), "{inflated}");
+}

@@ -89,7 +89,7 @@ pub enum Within {
 /// Whether `x` (relative to a ring's point, in its plane of unit normal `n`) lies inside the
 /// polygon of the ring's spoke tips `s` (in order around `n`, either sense): in the sector
 /// between two consecutive spokes, on the point's side of the edge between their tips.
-fn in_section(x: V, n: V, s: &[V]) -> bool {
+pub(super) fn in_section(x: V, n: V, s: &[V]) -> bool {
     let b = s.len();
     let side = |a: &V, c: &V| a.cross(c).dot(&n);
     // The spokes' sense about n, from the polygon's area.

@@ -6,10 +6,12 @@
 
 mod fold;
 mod native;
+mod overlap;
 mod text;
 
 pub use fold::{crossings as fold_crossings, FoldReport, Within as FoldWithin, CLIP as FOLD_CLIP, KEEP as FOLD_KEEP, WINDOW as FOLD_WINDOW};
 pub use native::{load_native, load_native_with, save_native, save_native_with};
+pub use overlap::OverlapReport;
 pub use text::{parse_text, to_text};
 
 use crate::V3;
