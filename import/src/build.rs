@@ -487,6 +487,13 @@ const ORIENTED_AGREEMENT: f64 = 0.8;
 /// the whole import again with [`SPOKES_STEP`] more spokes, up to [`MAX_AUTO_SPOKES`]: the
 /// truest is kept.
 pub fn build_tube(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
+    let (tube, mut report) = build_raised(mesh, centerline, params)?;
+    report.overlaps = tube.overlaps();
+    Ok((tube, report))
+}
+
+/// [`build_tube`] but for the overlap count: the spokes raised for [`ImportParams::fidelity_mm`].
+fn build_raised(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> Result<(Tube, ImportReport), ImportError> {
     let mut best = build_sliced(mesh, centerline, params)?;
     let target = params.fidelity_mm as f64;
     if target <= 0.0 || best.1.fidelity.p99 <= target {
@@ -873,6 +880,5 @@ fn build_along(mesh: &Mesh, centerline: &Centerline, params: &ImportParams) -> R
     let tried = candidates.len();
     let (tube, mut report) = candidates.swap_remove(pick);
     report.widths_tried = tried;
-    report.overlaps = tube.overlaps();
     Ok((tube, report))
 }

@@ -86,6 +86,12 @@ pub enum Within {
     Section,
 }
 
+/// Each of `n` rings' longest spoke, the farthest its wall lies from its point (`b` spokes a
+/// ring, ring-major in `spokes`).
+pub(super) fn reaches(spokes: &[V], n: usize, b: usize) -> Vec<f64> {
+    (0..n).map(|i| spokes[i * b..(i + 1) * b].iter().map(|s| s.norm()).fold(0.0, f64::max)).collect()
+}
+
 /// Whether `x` (relative to a ring's point, in its plane of unit normal `n`) lies inside the
 /// polygon of the ring's spoke tips `s` (in order around `n`, either sense): in the sector
 /// between two consecutive spokes, on the point's side of the edge between their tips.
@@ -113,7 +119,7 @@ pub(super) fn in_section(x: V, n: V, s: &[V]) -> bool {
 /// the import's ring planes and the model's check read the same test.
 pub fn crossings(points: &[V], normals: &[V], spokes: &[V], b: usize, keep: f64, within: Within, mut f: impl FnMut(usize, usize, usize, f64)) {
     let n = points.len();
-    let reach: Vec<f64> = (0..n).map(|i| spokes[i * b..(i + 1) * b].iter().map(|s| s.norm()).fold(0.0, f64::max)).collect();
+    let reach = reaches(spokes, n, b);
     for i in 0..n {
         let c = points[i];
         for k in 0..b {
@@ -185,10 +191,8 @@ impl Tube {
 
     /// The spokes longer than `keep` of their way to a crossing, and each shortened to that.
     fn fold_check(&self, keep: f64, within: Within) -> (FoldReport, Vec<(usize, V)>) {
-        let (n, b) = (self.rings(), self.spokes);
-        let normals: Vec<V> = (0..n).map(|i| self.ring_normal(i)).collect();
-        let points: Vec<V> = self.points.iter().map(|&p| v(p)).collect();
-        let spokes: Vec<V> = self.radial.iter().map(|&s| v(s)).collect();
+        let b = self.spokes;
+        let (points, normals, spokes) = self.in_f64();
         let mut report = FoldReport::default();
         let mut shortened = Vec::new();
         let mut last_ring = usize::MAX;
@@ -207,6 +211,13 @@ impl Tube {
             }
         });
         (report, shortened)
+    }
+
+    /// The rings' points, plane normals ([`Tube::ring_normal`]) and spokes in `f64`, what the
+    /// fold and overlap checks read.
+    pub(super) fn in_f64(&self) -> (Vec<V>, Vec<V>, Vec<V>) {
+        let normals = (0..self.rings()).map(|i| self.ring_normal(i)).collect();
+        (self.points.iter().map(|&p| v(p)).collect(), normals, self.radial.iter().map(|&s| v(s)).collect())
     }
 
     /// Ring `i`'s plane normal as the detector reads it ([`ring_plane`]), in `f64`.

@@ -19,7 +19,7 @@
 //! `(1 - u) n_j + u n_{j+1}`. A tube whose parts keep apart has none. Pure, in `f64`; each tip
 //! is tested against the segments whose bounding sphere holds it.
 
-use super::fold::{in_section, V};
+use super::fold::{in_section, reaches, V};
 use super::Tube;
 
 /// What [`Tube::overlaps`] found.
@@ -34,10 +34,6 @@ pub struct OverlapReport {
     pub farthest: usize,
 }
 
-fn v(a: [f32; 3]) -> V {
-    V::new(a[0] as f64, a[1] as f64, a[2] as f64)
-}
-
 impl Tube {
     /// The spoke tips that lie inside a segment of the tube not next to their own ring (see
     /// the module): where two parts of the lumen overlap.
@@ -47,10 +43,8 @@ impl Tube {
         if n < 3 || b < 3 {
             return report;
         }
-        let normals: Vec<V> = (0..n).map(|i| self.ring_normal(i)).collect();
-        let points: Vec<V> = self.points.iter().map(|&p| v(p)).collect();
-        let spokes: Vec<V> = self.radial.iter().map(|&s| v(s)).collect();
-        let reach: Vec<f64> = (0..n).map(|i| spokes[i * b..(i + 1) * b].iter().map(|s| s.norm()).fold(0.0, f64::max)).collect();
+        let (points, normals, spokes) = self.in_f64();
+        let reach = reaches(&spokes, n, b);
         // Each segment's bounding sphere: its middle, and the farthest a wall point can lie.
         let spheres: Vec<(V, f64)> = (0..n - 1).map(|j| ((points[j] + points[j + 1]) * 0.5, reach[j].max(reach[j + 1]) + (points[j + 1] - points[j]).norm() * 0.5)).collect();
         let mut polygon = vec![V::zeros(); b];
