@@ -673,6 +673,16 @@ mod tests {
         Tube::new((0..100).map(|i| [i as f32 * 1.2, 0.0, 0.0]).collect(), (0..100).flat_map(ring).collect(), b).unwrap()
     }
 
+    /// One frame's 16 substeps of 1/16 ms: predict, project, rates.
+    fn substeps(w: &mut Wall) {
+        let h = 1e-3 / 16.0;
+        for _ in 0..16 {
+            w.predict(h);
+            w.solve(h);
+            w.update_velocity(h);
+        }
+    }
+
     #[test]
     fn blocks_cover_every_tip_once_and_weights_sum_to_one() {
         let t = tube();
@@ -697,7 +707,6 @@ mod tests {
     fn a_pushed_node_springs_back_and_the_wall_is_rewritten_to_rest() {
         let t = tube();
         let mut w = Wall::new(&t, WallParams::default());
-        let h = 1e-3 / 16.0;
         let tip = 50 * 32 + 3;
         w.begin_frame();
         w.touch_tip(tip);
@@ -711,11 +720,7 @@ mod tests {
         while !w.active().is_empty() {
             w.begin_frame();
             w.settle(1e-3);
-            for _ in 0..16 {
-                w.predict(h);
-                w.solve(h);
-                w.update_velocity(h);
-            }
+            substeps(&mut w);
             w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
             frames += 1;
             assert!(frames < 2000, "never released");
@@ -771,7 +776,6 @@ mod tests {
         let (mut a, mut b) = (Wall::new(&t, WallParams::default()), Wall::new(&t, WallParams::default()));
         let mut kept: Vec<[f32; 3]> = t.radial.clone();
         let tip = 50 * 32 + 3;
-        let h = 1e-3 / 16.0;
         let mut left_rest = false;
         for frame in 0..400 {
             for w in [&mut a, &mut b] {
@@ -784,11 +788,7 @@ mod tests {
                     let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
                     w.push(s, 3.0);
                 }
-                for _ in 0..16 {
-                    w.predict(h);
-                    w.solve(h);
-                    w.update_velocity(h);
-                }
+                substeps(w);
             }
             left_rest |= a.active().is_empty();
             a.write_spokes(false, |tip, sp| kept[tip as usize] = sp);
