@@ -673,6 +673,17 @@ mod tests {
         Tube::new((0..100).map(|i| [i as f32 * 1.2, 0.0, 0.0]).collect(), (0..100).flat_map(ring).collect(), b).unwrap()
     }
 
+    /// Starts a frame with a contact at `tip` and moves the node it weighs most on outward by
+    /// `du` mm; returns that node's slot.
+    fn press(w: &mut Wall, tip: u32, du: f64) -> usize {
+        w.begin_frame();
+        w.touch_tip(tip);
+        w.settle(1e-3);
+        let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
+        w.push(s, du);
+        s
+    }
+
     /// One frame's 16 substeps of 1/16 ms: predict, project, rates.
     fn substeps(w: &mut Wall) {
         let h = 1e-3 / 16.0;
@@ -708,11 +719,7 @@ mod tests {
         let t = tube();
         let mut w = Wall::new(&t, WallParams::default());
         let tip = 50 * 32 + 3;
-        w.begin_frame();
-        w.touch_tip(tip);
-        w.settle(1e-3);
-        let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
-        w.push(s, 5.0);
+        press(&mut w, tip, 5.0);
         let mut state: Vec<[f32; 3]> = t.radial.clone();
         w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
         assert!(w.tip_displacement(tip) > 1.0);
@@ -734,11 +741,7 @@ mod tests {
         let t = tube();
         let mut w = Wall::new(&t, WallParams { publish_mm: 0.001, ..WallParams::default() });
         let tip = 50 * 32 + 3;
-        w.begin_frame();
-        w.touch_tip(tip);
-        w.settle(1e-3);
-        let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
-        w.push(s, 1.0);
+        let s = press(&mut w, tip, 1.0);
         let mut kept: Vec<[f32; 3]> = t.radial.clone();
         w.write_spokes(false, |tip, sp| kept[tip as usize] = sp);
         let written = |w: &mut Wall, full: bool, out: &mut Vec<[f32; 3]>| {
@@ -779,14 +782,11 @@ mod tests {
         let mut left_rest = false;
         for frame in 0..400 {
             for w in [&mut a, &mut b] {
-                w.begin_frame();
                 if frame == 0 || frame == 300 {
-                    w.touch_tip(tip);
-                }
-                w.settle(1e-3);
-                if frame == 0 || frame == 300 {
-                    let s = w.slot_of(w.tip_nodes(tip).nodes[4]).unwrap();
-                    w.push(s, 3.0);
+                    press(w, tip, 3.0);
+                } else {
+                    w.begin_frame();
+                    w.settle(1e-3);
                 }
                 substeps(w);
             }
