@@ -22,7 +22,8 @@ struct Coding {
 
 impl Coding {
     fn new(rows: Rows) -> Self {
-        let (enc, dec) = (Encoder::with_rows(rows).unwrap(), Decoder::new().unwrap());
+        let level = std::env::var("LEVEL").ok().and_then(|l| l.parse().ok()).unwrap_or(lumen_transport::delta::LEVEL);
+        let (enc, dec) = (Encoder::with_level(rows, level).unwrap(), Decoder::new().unwrap());
         Self { rows, enc, dec, base: Vec::new(), bytes: Vec::new(), encode: Vec::new(), decode: Vec::new() }
     }
 

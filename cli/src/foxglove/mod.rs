@@ -34,6 +34,11 @@
 //!   `point_b` (the wall) along its `normal`: magenta for a sample outside the wall
 //!   ([`FLAG_OUTSIDE`]), else yellow at depth 0 to red at [`RED_DEPTH`] (2 mm) and deeper.
 //!
+//! A drawn point (the scope's, the colon's) is rounded to a power of ten at or below
+//! [`DRAWN_PRECISION`] of its body's largest coordinate (1 um for a colon in mm): shorter
+//! numbers, half the colon's bytes, nothing a display could show. The frames and replies are
+//! recorded exactly.
+//!
 //! A message never holds a non-finite number (JSON cannot): a NaN or infinite coordinate is
 //! written 0, and a contact whose point or normal is not finite has no arrow. A frame whose
 //! float count does not match the spec has no update.
@@ -55,6 +60,9 @@ pub const FRAME_ID: &str = "lumen";
 pub const SCENE_EVERY_NS: u64 = 1_000_000_000 / 60;
 /// Log time at least between two updates carrying the colon (tube bodies), ns.
 pub const COLON_EVERY_NS: u64 = 1_000_000_000;
+/// A drawn point's coordinates are rounded to at most this fraction of the largest coordinate
+/// of its body (see `Points::step`): 1 um for a colon whose coordinates reach 100 to 1,000 mm.
+pub const DRAWN_PRECISION: f64 = 1e-5;
 /// Rows of the drawn wall per ring segment (1: the rings themselves).
 pub const WALL_STEPS: usize = 1;
 /// Depth (scene units: mm for the colonoscopy) at which a contact's arrow is fully red.
@@ -236,12 +244,34 @@ impl Serialize for Empty {
     }
 }
 
-/// Points given as flat `x y z` floats, written as `foxglove.Point3` objects (non-finite: 0).
+/// Points given as flat `x y z` floats, written as `foxglove.Point3` objects (non-finite: 0),
+/// each coordinate rounded to [`Points::step`]'s decimals.
 struct Points<'a>(&'a [f32]);
+
+impl Points<'_> {
+    /// The power of ten the coordinates are rounded to: the largest at or below
+    /// [`DRAWN_PRECISION`] of the largest finite coordinate's magnitude (a colon in mm: 0.001).
+    /// A drawing needs no more, and the shorter numbers halve the colon's bytes.
+    fn step(&self) -> f64 {
+        let most = self.0.iter().filter(|v| v.is_finite()).fold(0f32, |m, v| m.max(v.abs()));
+        if most == 0.0 {
+            return 1.0;
+        }
+        10f64.powi((most as f64 * DRAWN_PRECISION).log10().floor() as i32)
+    }
+}
+
+/// `v` rounded to a multiple of `step`, as the float nearest that decimal (which JSON then
+/// writes with no more digits than the decimal has); 0 where `v` is not finite.
+fn rounded(v: f32, step: f64) -> f32 {
+    let r = ((fin(v) as f64 / step).round() * step) as f32;
+    fin(r)
+}
 
 impl Serialize for Points<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_seq(self.0.chunks_exact(3).map(|p| Vector3 { x: fin(p[0]), y: fin(p[1]), z: fin(p[2]) }))
+        let step = self.step();
+        s.collect_seq(self.0.chunks_exact(3).map(|p| Vector3 { x: rounded(p[0], step), y: rounded(p[1], step), z: rounded(p[2], step) }))
     }
 }
 

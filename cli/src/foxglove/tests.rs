@@ -284,7 +284,9 @@ fn a_recording_holds_a_scene_channel_that_foxglove_reads() {
             assert!(tri["color"]["a"].as_f64().unwrap() < 1.0, "see-through");
             for (n, p) in pts.iter().enumerate() {
                 let (c, v) = (ring(n / SPOKES, f), spoke(n % SPOKES));
-                assert!(close(xyz(p), [c[0] + v[0], c[1] + v[1], c[2] + v[2]]), "wall point {n}");
+                // Rounded to 1e-4: the largest coordinate is 50 (DRAWN_PRECISION).
+                let (got, want) = (xyz(p), [c[0] + v[0], c[1] + v[1], c[2] + v[2]]);
+                assert!((0..3).all(|i| (got[i] - want[i]).abs() <= 0.5e-4 + 1e-6), "wall point {n}: {got:?} for {want:?}");
             }
             // The quad (0, last spoke) closes the tube: its triangles join spoke 7 and spoke 0.
             let last: Vec<u64> = idx[(SPOKES - 1) * 6..SPOKES * 6].iter().map(|i| i.as_u64().unwrap()).collect();
@@ -412,6 +414,17 @@ fn a_colon_sized_update() {
     let tri = &entity(&update, "tube/colon").unwrap()["triangles"][0];
     assert_eq!(tri["points"].as_array().unwrap().len(), rings * spokes);
     assert_eq!(tri["indices"].as_array().unwrap().len(), 2 * (rings - 1) * spokes * 3);
+    // Drawn to 1 um (its coordinates reach 100 mm and more): no number has more than three
+    // decimals, and each is the state's within half of that.
+    let text = std::str::from_utf8(&out).unwrap();
+    let pts = text.split("\"points\":[").nth(1).unwrap().split(']').next().unwrap();
+    assert!(pts.split([',', ':', '}']).filter_map(|t| t.split_once('.')).all(|(_, decimals)| decimals.len() <= 3), "{}", &pts[..200]);
+    let mut wall = Vec::new();
+    lumen_detect::wall::WallGrid { steps: WALL_STEPS, alpha: spec.alpha }.append(&states[0][..rings * (spokes + 1) * 3], rings, spokes, 0..rings - 1, &mut wall);
+    for (p, want) in tri["points"].as_array().unwrap().iter().zip(&wall) {
+        let got = xyz(p);
+        assert!((0..3).all(|i| (got[i] - want[i]).abs() <= 0.5e-3 + 1e-4), "{got:?} drawn for {want:?}");
+    }
     out.clear();
     let start = std::time::Instant::now();
     assert_eq!(w.frame(1 + SCENE_EVERY_NS, &states[1], &mut out), Some(false));
