@@ -17,11 +17,12 @@
 //!
 //! - per frame ([`SceneWriter::frame`]): each rod body (the scope) as a `LINE_STRIP` through
 //!   its points, as thick as its diameter (id `rod/<name>`); and each tube body (the colon) as
-//!   a triangle list (id `tube/<name>`): its wall points, one row per ring (the ring's control
+//!   triangle lists (id `tube/<name>`): its wall points, one row per ring (the ring's control
 //!   point plus each radial vector, [`WallGrid`] at [`WALL_STEPS`] row per segment), two
 //!   triangles per quad between consecutive rows and spokes (around, the last spoke to the
-//!   first), by `indices`. The colon is large (1,250 rings x 32 spokes: 40,000 points and
-//!   240,000 indices, about 3 MB of JSON), so it goes with the first frame and then with the
+//!   first), by `indices`, one list per [`WALL_BLOCK_ROWS`] rows of quads (a list's last row of
+//!   points is the next one's first). The colon is large (1,250 rings x 32 spokes: 40,000
+//!   points and 240,000 indices, about 2.5 MB of JSON), so it goes with the first frame and then with the
 //!   first frame at least [`COLON_EVERY_NS`] (1 s) of log time after the last one that had it
 //!   (or whose log time is earlier, a client that restarted its clock). Log time, not a frame
 //!   count: the cost is bounded per second of recording whatever the physics rate (60 Hz or
@@ -63,6 +64,8 @@ pub const COLON_EVERY_NS: u64 = 1_000_000_000;
 /// A drawn point's coordinates are rounded to at most this fraction of the largest coordinate
 /// of its body (see `Points::step`): 1 um for a colon whose coordinates reach 100 to 1,000 mm.
 pub const DRAWN_PRECISION: f64 = 1e-5;
+/// Quad rows of a tube's wall per triangle list (see `WallBlocks`).
+pub const WALL_BLOCK_ROWS: usize = 16;
 /// Rows of the drawn wall per ring segment (1: the rings themselves).
 pub const WALL_STEPS: usize = 1;
 /// Depth (scene units: mm for the colonoscopy) at which a contact's arrow is fully red.
@@ -162,7 +165,7 @@ impl SceneWriter {
             }
         }
         let time = Time::of(log_time);
-        let entity = Entity { time, id: CONTACTS_ID, arrows: &self.arrows, lines: &[], triangles: &[] };
+        let entity = Entity { time, id: CONTACTS_ID, arrows: &self.arrows, lines: &[], triangles: None };
         let update = Update { entities: std::slice::from_ref(&entity) };
         serde_json::to_writer(&mut *out, &update).expect("a scene update serialises to memory");
         true
@@ -245,20 +248,28 @@ impl Serialize for Empty {
 }
 
 /// Points given as flat `x y z` floats, written as `foxglove.Point3` objects (non-finite: 0),
-/// each coordinate rounded to [`Points::step`]'s decimals.
-struct Points<'a>(&'a [f32]);
+/// each coordinate rounded to a multiple of `step`.
+struct Points<'a> {
+    xyz: &'a [f32],
+    step: f64,
+}
 
-impl Points<'_> {
-    /// The power of ten the coordinates are rounded to: the largest at or below
-    /// [`DRAWN_PRECISION`] of the largest finite coordinate's magnitude (a colon in mm: 0.001).
-    /// A drawing needs no more, and the shorter numbers halve the colon's bytes.
-    fn step(&self) -> f64 {
-        let most = self.0.iter().filter(|v| v.is_finite()).fold(0f32, |m, v| m.max(v.abs()));
-        if most == 0.0 {
-            return 1.0;
-        }
-        10f64.powi((most as f64 * DRAWN_PRECISION).log10().floor() as i32)
+impl<'a> Points<'a> {
+    /// The points `xyz`, rounded to [`step_of`] them.
+    fn new(xyz: &'a [f32]) -> Self {
+        Self { xyz, step: step_of(xyz) }
     }
+}
+
+/// The power of ten a body's coordinates `xyz` are drawn to: the largest at or below
+/// [`DRAWN_PRECISION`] of the largest finite coordinate's magnitude (a colon in mm: 0.001). A
+/// drawing needs no more, and shorter numbers make the colon's updates a fifth smaller.
+fn step_of(xyz: &[f32]) -> f64 {
+    let most = xyz.iter().filter(|v| v.is_finite()).fold(0f32, |m, v| m.max(v.abs()));
+    if most == 0.0 {
+        return 1.0;
+    }
+    10f64.powi((most as f64 * DRAWN_PRECISION).log10().floor() as i32)
 }
 
 /// `v` rounded to a multiple of `step`, as the float nearest that decimal (which JSON then
@@ -270,8 +281,8 @@ fn rounded(v: f32, step: f64) -> f32 {
 
 impl Serialize for Points<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let step = self.step();
-        s.collect_seq(self.0.chunks_exact(3).map(|p| Vector3 { x: rounded(p[0], step), y: rounded(p[1], step), z: rounded(p[2], step) }))
+        let step = self.step;
+        s.collect_seq(self.xyz.chunks_exact(3).map(|p| Vector3 { x: rounded(p[0], step), y: rounded(p[1], step), z: rounded(p[2], step) }))
     }
 }
 
@@ -318,7 +329,31 @@ impl Serialize for Line<'_> {
     }
 }
 
-/// `foxglove.TriangleListPrimitive`: one tube's wall.
+/// One tube's wall as triangle lists of [`WALL_BLOCK_ROWS`] quad rows each (the last may have
+/// fewer): `rows` rows of `spokes` points, flat, drawn to `step`. A block's points are its
+/// rows and the first of the next block's (written twice), its indices count from its own
+/// first point: the same numbers in every whole block, which the chunks' zstd then stores
+/// once instead of 240,000 distinct numbers a colon.
+struct WallBlocks<'a> {
+    xyz: &'a [f32],
+    rows: usize,
+    spokes: usize,
+    step: f64,
+}
+
+impl Serialize for WallBlocks<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let quads = self.rows.saturating_sub(1);
+        let row = 3 * self.spokes;
+        s.collect_seq((0..quads.div_ceil(WALL_BLOCK_ROWS)).map(|b| {
+            let (first, last) = (b * WALL_BLOCK_ROWS, ((b + 1) * WALL_BLOCK_ROWS).min(quads));
+            let points = Points { xyz: &self.xyz[first * row..(last + 1) * row], step: self.step };
+            Triangles { points, indices: QuadIndices { rows: last - first + 1, spokes: self.spokes } }
+        }))
+    }
+}
+
+/// `foxglove.TriangleListPrimitive`: a block of a tube's wall.
 struct Triangles<'a> {
     points: Points<'a>,
     indices: QuadIndices,
@@ -385,7 +420,7 @@ struct Entity<'a> {
     id: &'a str,
     arrows: &'a [Arrow],
     lines: &'a [Line<'a>],
-    triangles: &'a [Triangles<'a>],
+    triangles: Option<&'a WallBlocks<'a>>,
 }
 
 impl Serialize for Entity<'_> {
@@ -402,7 +437,10 @@ impl Serialize for Entity<'_> {
         st.serialize_field("spheres", &Empty)?;
         st.serialize_field("cylinders", &Empty)?;
         st.serialize_field("lines", &Lines(self.lines))?;
-        st.serialize_field("triangles", &Tris(self.triangles))?;
+        match self.triangles {
+            Some(wall) => st.serialize_field("triangles", wall)?,
+            None => st.serialize_field("triangles", &Empty)?,
+        }
         st.serialize_field("texts", &Empty)?;
         st.serialize_field("models", &Empty)?;
         st.end()
@@ -411,12 +449,6 @@ impl Serialize for Entity<'_> {
 
 struct Lines<'a>(&'a [Line<'a>]);
 impl Serialize for Lines<'_> {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_seq(self.0)
-    }
-}
-struct Tris<'a>(&'a [Triangles<'a>]);
-impl Serialize for Tris<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.collect_seq(self.0)
     }
@@ -465,8 +497,8 @@ impl Serialize for FrameEntities<'_> {
         for b in u.bodies {
             match b {
                 Body::Rod { id, offset, points, diameter } => {
-                    let line = Line { points: Points(&u.state[*offset..offset + points * 3]), thickness: *diameter, color: SCOPE_COLOR };
-                    seq.serialize_element(&Entity { time: u.time, id, arrows: &[], lines: std::slice::from_ref(&line), triangles: &[] })?;
+                    let line = Line { points: Points::new(&u.state[*offset..offset + points * 3]), thickness: *diameter, color: SCOPE_COLOR };
+                    seq.serialize_element(&Entity { time: u.time, id, arrows: &[], lines: std::slice::from_ref(&line), triangles: None })?;
                 }
                 Body::Tube { id, rings, spokes, .. } => {
                     let Some(wall) = u.wall else { continue };
@@ -475,8 +507,9 @@ impl Serialize for FrameEntities<'_> {
                     let mine = &wall[wall_at..wall_at + n];
                     wall_at += n;
                     let rows = if *spokes == 0 { 0 } else { n / spokes };
-                    let tri = Triangles { points: Points(mine.as_flattened()), indices: QuadIndices { rows, spokes: *spokes } };
-                    seq.serialize_element(&Entity { time: u.time, id, arrows: &[], lines: &[], triangles: std::slice::from_ref(&tri) })?;
+                    let xyz = mine.as_flattened();
+                    let blocks = WallBlocks { xyz, rows, spokes: *spokes, step: step_of(xyz) };
+                    seq.serialize_element(&Entity { time: u.time, id, arrows: &[], lines: &[], triangles: Some(&blocks) })?;
                 }
             }
         }

@@ -411,9 +411,25 @@ fn a_colon_sized_update() {
         Shape::Tube { rings, spokes } => (rings, spokes),
         _ => unreachable!(),
     };
-    let tri = &entity(&update, "tube/colon").unwrap()["triangles"][0];
-    assert_eq!(tri["points"].as_array().unwrap().len(), rings * spokes);
-    assert_eq!(tri["indices"].as_array().unwrap().len(), 2 * (rings - 1) * spokes * 3);
+    // Blocks of 16 rows of quads (the last of 1,249 has 1), each with its last row of points
+    // again as the next one's first, and the same indices in every whole block.
+    let blocks = entity(&update, "tube/colon").unwrap()["triangles"].as_array().unwrap().clone();
+    assert_eq!(blocks.len(), (rings - 1).div_ceil(WALL_BLOCK_ROWS));
+    let mut points: Vec<[f32; 3]> = Vec::new();
+    for (b, tri) in blocks.iter().enumerate() {
+        let (pts, idx) = (tri["points"].as_array().unwrap(), tri["indices"].as_array().unwrap());
+        let quads = WALL_BLOCK_ROWS.min(rings - 1 - b * WALL_BLOCK_ROWS);
+        assert_eq!((pts.len(), idx.len()), ((quads + 1) * spokes, 6 * quads * spokes), "block {b}");
+        if quads == WALL_BLOCK_ROWS {
+            assert_eq!(idx, blocks[0]["indices"].as_array().unwrap(), "block {b}");
+        }
+        if let Some(last) = points.last() {
+            assert_eq!(xyz(&pts[spokes - 1]), *last, "block {b} starts on the row the last ended with");
+        }
+        points.truncate(points.len().saturating_sub(spokes));
+        points.extend(pts.iter().map(xyz));
+    }
+    assert_eq!(points.len(), rings * spokes);
     // Drawn to 1 um (its coordinates reach 100 mm and more): no number has more than three
     // decimals, and each is the state's within half of that.
     let text = std::str::from_utf8(&out).unwrap();
@@ -421,8 +437,8 @@ fn a_colon_sized_update() {
     assert!(pts.split([',', ':', '}']).filter_map(|t| t.split_once('.')).all(|(_, decimals)| decimals.len() <= 3), "{}", &pts[..200]);
     let mut wall = Vec::new();
     lumen_detect::wall::WallGrid { steps: WALL_STEPS, alpha: spec.alpha }.append(&states[0][..rings * (spokes + 1) * 3], rings, spokes, 0..rings - 1, &mut wall);
-    for (p, want) in tri["points"].as_array().unwrap().iter().zip(&wall) {
-        let got = xyz(p);
+    assert_eq!(wall.len(), points.len());
+    for (got, want) in points.iter().zip(&wall) {
         assert!((0..3).all(|i| (got[i] - want[i]).abs() <= 0.5e-3 + 1e-4), "{got:?} drawn for {want:?}");
     }
     out.clear();
