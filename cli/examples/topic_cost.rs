@@ -1,6 +1,7 @@
 //! What each topic of a recording costs on disk: its messages' bytes, and the bytes of an MCAP
 //! holding that topic alone with the recorder's options (zstd chunks), per recorded frame; the
-//! frames also by kind (whole, delta, anchored key frame), before the chunks' zstd.
+//! frames also by kind (whole, delta, anchored key frame), before the chunks' zstd, and the scene
+//! by the updates that carry the colon and those that do not.
 //!
 //! `cargo run --release -p lumen-cli --example topic_cost -- demo/run.mcap`
 
@@ -21,17 +22,17 @@ fn main() {
     println!("|---|---:|---:|---:|---:|");
     for (topic, messages) in &topics {
         let raw: usize = messages.iter().map(|m| m.data.len()).sum();
-        let options = mcap::WriteOptions::new().compression(Some(mcap::Compression::Zstd));
-        let mut w = options.create(Cursor::new(Vec::new())).expect("a writer");
-        let mut channels = BTreeMap::new();
-        for m in messages {
-            let ch = *channels.entry(m.channel.id).or_insert_with(|| w.add_channel(0, topic, &m.channel.message_encoding, &BTreeMap::new()).expect("a channel"));
-            let header = mcap::records::MessageHeader { channel_id: ch, sequence: m.sequence, log_time: m.log_time, publish_time: m.publish_time };
-            w.write_to_known_channel(&header, &m.data).expect("a message");
+        let whole = alone(topic, messages.iter());
+        println!("| {topic} | {} | {raw} | {whole} | {:.2} |", messages.len(), whole as f64 / frames as f64 / 1e3);
+        if topic == lumen_cli::recording::SCENE_TOPIC {
+            // The updates that carry the colon (a tube's triangles), and the others.
+            let (colon, other): (Vec<_>, Vec<_>) = messages.iter().partition(|m| m.data.windows(6).any(|w| w == b"\"tube/"));
+            for (what, part) in [("with the colon", colon), ("without it", other)] {
+                let n = part.len();
+                let bytes = alone(topic, part.into_iter());
+                println!("|   {what} | {n} | | {bytes} | {:.1} KB an update |", bytes as f64 / n.max(1) as f64 / 1e3);
+            }
         }
-        w.finish().expect("finished");
-        let alone = w.into_inner().into_inner().len();
-        println!("| {topic} | {} | {raw} | {alone} | {:.2} |", messages.len(), alone as f64 / frames as f64 / 1e3);
         if topic == lumen_cli::recording::FRAMES_TOPIC {
             // By kind (the u32 after the 40-byte header): key frames, deltas.
             let mut kinds: BTreeMap<u32, (usize, usize)> = BTreeMap::new();
@@ -45,4 +46,19 @@ fn main() {
             }
         }
     }
+}
+
+/// Bytes of an MCAP holding `messages` alone on one channel `topic`, with the recorder's options
+/// (zstd chunks).
+fn alone<'a>(topic: &str, messages: impl Iterator<Item = &'a mcap::Message<'a>>) -> usize {
+    let options = mcap::WriteOptions::new().compression(Some(mcap::Compression::Zstd));
+    let mut w = options.create(Cursor::new(Vec::new())).expect("a writer");
+    let mut channels = BTreeMap::new();
+    for m in messages {
+        let ch = *channels.entry(m.channel.id).or_insert_with(|| w.add_channel(0, topic, &m.channel.message_encoding, &BTreeMap::new()).expect("a channel"));
+        let header = mcap::records::MessageHeader { channel_id: ch, sequence: m.sequence, log_time: m.log_time, publish_time: m.publish_time };
+        w.write_to_known_channel(&header, &m.data).expect("a message");
+    }
+    w.finish().expect("finished");
+    w.into_inner().into_inner().len()
 }
