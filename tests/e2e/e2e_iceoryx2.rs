@@ -204,7 +204,9 @@ fn drained(obs: &mut lumen_client::Observer) -> (Vec<(u64, Vec<f32>)>, Vec<u64>)
 }
 
 #[test]
-fn an_observer_of_every_frame_keeps_eight_behind_and_the_newest_observer_skips_to_the_last() {
+fn an_observer_of_every_frame_keeps_sixteen_behind_and_the_newest_observer_skips_to_the_last() {
+    const KEPT: u64 = lumen_transport::shm::FRAME_BUFFER as u64;
+    assert_eq!(KEPT, 16, "proto/README.md promises 16");
     let prefix = unique_prefix("every");
     let _daemon = Daemon::start(Path::new(LUMEN), &prefix, None, &[]);
     let scene = scene();
@@ -220,23 +222,23 @@ fn an_observer_of_every_frame_keeps_eight_behind_and_the_newest_observer_skips_t
             assert_eq!(a.contacts(WAIT).unwrap().frame(), k);
         }
     };
-    // Eight frames while neither observer reads: every one is kept, in order, with its reply.
-    run(0..8);
+    // Sixteen frames while neither observer reads: every one is kept, in order, with its reply.
+    run(0..KEPT);
     let (frames, replies) = drained(&mut every);
-    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..8).collect::<Vec<_>>());
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..KEPT).collect::<Vec<_>>());
     for (k, state) in &frames {
         assert_eq!(state, &scene.state(*k), "frame {k}");
     }
-    assert_eq!(replies, (0..8).collect::<Vec<_>>());
+    assert_eq!(replies, (0..KEPT).collect::<Vec<_>>());
     let (frames, _) = drained(&mut newest);
-    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [7]);
-    // Twelve more: the client never waited for the observers; they keep the newest eight.
-    run(8..20);
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [KEPT - 1]);
+    // Twenty more: the client never waited for the observers; they keep the newest sixteen.
+    run(KEPT..2 * KEPT + 4);
     let (frames, replies) = drained(&mut every);
-    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (12..20).collect::<Vec<_>>());
-    assert_eq!(replies, (12..20).collect::<Vec<_>>());
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (KEPT + 4..2 * KEPT + 4).collect::<Vec<_>>());
+    assert_eq!(replies, (KEPT + 4..2 * KEPT + 4).collect::<Vec<_>>());
     let (frames, _) = drained(&mut newest);
-    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [19]);
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [2 * KEPT + 3]);
 }
 
 #[test]

@@ -38,14 +38,16 @@ pub const LIVENESS_PERIOD: Duration = Duration::from_millis(200);
 
 /// Frames kept per observer (the service's subscriber buffer): an observer that falls up to
 /// this many frames behind (a recorder descheduled for a few milliseconds of a 1 kHz session)
-/// still gets every frame; past it the oldest is dropped, never the client slowed.
-pub const FRAME_BUFFER: usize = 8;
+/// still gets every frame; past it the oldest is dropped, never the client slowed. 16: with 8
+/// the recorder of an unpaced `lumen demo` on two cores lost 1 or 2 frames in 3 runs of 20,
+/// with 16 none in 40; a session's shared memory grows with it (`docs/measurements.md`).
+pub const FRAME_BUFFER: usize = 16;
 /// Frames the daemon's own subscriber keeps: one, so that it always answers the newest frame.
 pub const DAEMON_FRAME_BUFFER: usize = 1;
 /// Frames one subscriber may hold at once: the newest, and the next while draining to it.
 pub const FRAME_BORROWED: usize = 2;
 /// Replies kept per subscriber (the client and each observer), as deep as the frames.
-pub const CONTACTS_BUFFER: usize = 8;
+pub const CONTACTS_BUFFER: usize = 16;
 /// Replies one subscriber may hold at once.
 pub const CONTACTS_BORROWED: usize = 2;
 

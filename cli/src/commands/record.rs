@@ -3,7 +3,7 @@
 //! file is finished either way.
 //!
 //! Two threads: the observer's loop only copies each frame and reply into a queue (over
-//! iceoryx2 a frame must be taken before 8 more come, over zenoh before the next, or it is
+//! iceoryx2 a frame must be taken before 16 more come, over zenoh before the next, or it is
 //! gone), and a writer thread codes and writes them, so a frame that takes long to write holds
 //! up no receiving.
 
@@ -142,7 +142,7 @@ pub fn run(args: RecordArgs) -> CliResult {
     Ok(())
 }
 
-/// Frame numbers the observer jumped over: a recorder that falls behind (8 frames over iceoryx2,
+/// Frame numbers the observer jumped over: a recorder that falls behind (16 frames over iceoryx2,
 /// one over zenoh) loses frames; they are counted, never silently dropped.
 #[derive(Debug, Default)]
 struct Gaps {

@@ -376,7 +376,7 @@ impl Observer {
     }
 
     /// Asks for every frame in the order sent rather than the newest (a recorder): over
-    /// iceoryx2 the session keeps 8 frames for each observer, so one up to 8 frames behind
+    /// iceoryx2 the session keeps 16 frames for each observer, so one up to 16 frames behind
     /// loses none (frame numbers tell what it missed); over zenoh it changes nothing (an ask is
     /// answered with the newest frame).
     fn every_frame(&mut self, py: Python<'_>) -> PyResult<()> {

@@ -225,7 +225,7 @@ def test_an_observer_sees_the_sessions_frames_and_contacts(start_daemon, transpo
     assert e.value.session == id
 
 
-def test_an_observer_of_every_frame_keeps_eight_frames_over_iceoryx2(start_daemon):
+def test_an_observer_of_every_frame_keeps_sixteen_frames_over_iceoryx2(start_daemon):
     d = start_daemon("every")
     s = d.client("iceoryx2").open_session(st.SPEC)
     watcher = d.client("iceoryx2")
@@ -241,15 +241,15 @@ def test_an_observer_of_every_frame_keeps_eight_frames_over_iceoryx2(start_daemo
                 return frames, replies
             (frames if isinstance(o, lumen.ObservedFrame) else replies).append(o.frame)
 
-    # Twelve frames while neither observer reads: the client never waits for them; one keeps
-    # the last eight in order with their replies, the other skips to the newest.
+    # Twenty frames while neither observer reads: the client never waits for them; one keeps
+    # the last sixteen in order with their replies, the other skips to the newest.
     sent = []
-    for k in range(12):
+    for k in range(20):
         n = s.submit_state(st.state(8.5 + 0.1 * k))
         reply_to(s, n)
         sent.append(n)
     frames, replies = drained(every)
-    assert frames == sent[-8:] and replies == sent[-8:], (frames, replies)
+    assert frames == sent[-16:] and replies == sent[-16:], (frames, replies)
     frames, _ = drained(newest)
     assert frames == sent[-1:], frames
     s.close()
