@@ -3,7 +3,9 @@
 //! encoding time and the daemon's decoding time (read and rebuild on the base), for plain and
 //! scaled rows side by side (each frame coded both ways, the order alternating).
 //!
-//! `cargo run --release -p lumen-cli --example delta_cost -- demo/run.mcap`
+//! `cargo run --release -p lumen-cli --example delta_cost -- demo/run.mcap`; with `ONLY=plain`
+//! or `ONLY=scaled` one coding, `FRAMES=N` the first N frames, `LEVEL=L` zstd level L instead of
+//! the wire's.
 
 use lumen_cli::recording::Recording;
 use lumen_transport::delta::{Decoder, Encoder, Rows};

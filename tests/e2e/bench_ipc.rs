@@ -3,14 +3,17 @@
 //! with each other, and nothing is left in /dev/shm.
 
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 const LUMEN: &str = env!("CARGO_BIN_EXE_lumen");
 
 #[test]
 fn a_short_ipc_benchmark_writes_coherent_figures() {
     let out = std::env::temp_dir().join(format!("lumen-bench-ipc-{}", std::process::id()));
-    let run = Command::new(LUMEN).args(["bench", "ipc", "--only", "iceoryx2", "--frames", "60", "--out"]).arg(&out).output().unwrap();
+    let child = Command::new(LUMEN).args(["bench", "ipc", "--only", "iceoryx2", "--frames", "60", "--out"]).arg(&out).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    // Its iceoryx2 prefix (`lumen_bench_<pid>_`): what it must leave nothing of.
+    let prefix = format!("lumen_bench_{}_", child.id());
+    let run = child.wait_with_output().unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ipc.json")).unwrap()).unwrap();
     let runs = json["runs"].as_array().unwrap();
@@ -48,7 +51,7 @@ fn a_short_ipc_benchmark_writes_coherent_figures() {
     assert!(md.contains(&format!("cost {:.3} us a round trip at p50", o["p50_us"].as_f64().unwrap())), "{md}");
     let _ = std::fs::remove_dir_all(&out);
     let left: Vec<_> =
-        std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("lumen_bench_")).collect()).unwrap_or_default();
+        std::fs::read_dir(Path::new("/dev/shm")).map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with(&prefix)).collect()).unwrap_or_default();
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }
 

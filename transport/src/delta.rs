@@ -282,7 +282,7 @@ impl Encoder {
     }
 
     /// An encoder of deltas coded as `rows` says, at zstd level `level` (any level decodes the
-    /// same: a recorder, with time to spare, writes fewer bytes at a higher one).
+    /// same; `cli/examples/delta_cost.rs` compares their bytes and times with `LEVEL=`).
     pub fn with_level(rows: Rows, level: i32) -> Result<Self, DeltaError> {
         let compressor = zstd::bulk::Compressor::new(level).map_err(DeltaError::Zstd)?;
         Ok(Self { compressor, rows, scales: Vec::new(), zs: Vec::new(), raw: Vec::new(), packed: Vec::new() })
