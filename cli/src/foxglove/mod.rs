@@ -37,7 +37,7 @@
 //!
 //! A drawn point (the scope's, the colon's) is rounded to a power of ten at or below
 //! [`DRAWN_PRECISION`] of its body's largest coordinate (1 um for a colon in mm): shorter
-//! numbers, half the colon's bytes, nothing a display could show. The frames and replies are
+//! numbers, a fifth fewer of the colon's bytes, nothing a display could show. The frames and replies are
 //! recorded exactly.
 //!
 //! A message never holds a non-finite number (JSON cannot): a NaN or infinite coordinate is
@@ -62,7 +62,7 @@ pub const SCENE_EVERY_NS: u64 = 1_000_000_000 / 60;
 /// Log time at least between two updates carrying the colon (tube bodies), ns.
 pub const COLON_EVERY_NS: u64 = 1_000_000_000;
 /// A drawn point's coordinates are rounded to at most this fraction of the largest coordinate
-/// of its body (see `Points::step`): 1 um for a colon whose coordinates reach 100 to 1,000 mm.
+/// of its body (see `step_of`): 1 um for a colon whose coordinates reach 100 to 1,000 mm.
 pub const DRAWN_PRECISION: f64 = 1e-5;
 /// Quad rows of a tube's wall per triangle list (see `WallBlocks`).
 pub const WALL_BLOCK_ROWS: usize = 16;
