@@ -187,6 +187,13 @@ fn apply(map: &[u8], scales: Option<&[u32]>, zs: &[u32], state: &mut [f32], mut 
     }
 }
 
+/// How many rows the bitmap `map` marks, counted eight bytes at a time: without a popcount
+/// instruction in the baseline x86-64 a byte's count costs nearly what a word's does.
+fn marked_count(map: &[u8]) -> usize {
+    let (words, tail) = map.as_chunks::<8>();
+    words.iter().map(|w| u64::from_le_bytes(*w).count_ones() as usize).sum::<usize>() + tail.iter().map(|b| b.count_ones() as usize).sum::<usize>()
+}
+
 /// Calls `f` with each row the bitmap `map` marks, in order, reading it eight bytes at a time
 /// (most words of a delta's bitmap are zero).
 #[inline(always)]
@@ -412,10 +419,7 @@ impl Decoder {
         }
         // Every set bit counts, those past the last row too: they are refused even where the
         // count agrees (applying them would write past the state).
-        // Eight bytes at a time: without a popcount instruction in the baseline x86-64 a byte's
-        // count costs nearly what a word's does.
-        let (words, tail) = self.raw[..bitmap].as_chunks::<8>();
-        let set: usize = words.iter().map(|w| u64::from_le_bytes(*w).count_ones() as usize).sum::<usize>() + tail.iter().map(|b| b.count_ones() as usize).sum::<usize>();
+        let set = marked_count(&self.raw[..bitmap]);
         let past_end = !rows.is_multiple_of(8) && self.raw[bitmap - 1] >> (rows % 8) != 0;
         if set != header.changed as usize || past_end {
             return Err(DeltaError::Bitmap { changed: header.changed, set, rows });
