@@ -95,6 +95,15 @@ struct Args {
     /// Wall stiffness, kPa per mm.
     #[arg(long)]
     wall_stiffness: Option<f64>,
+    /// Moves the scope's start deeper by this many micrometres (default 0): a trajectory of the
+    /// same colonoscopy that differs from the first frame on.
+    #[arg(long, default_value_t = 0)]
+    start_offset_um: u32,
+    /// Runs the colonoscopy this many times, from start offsets of 0, 1, ... micrometres (after
+    /// --start-offset-um), two at a time, and reports each run's deepest frame and the worst:
+    /// soundness over an ensemble of trajectories, not one draw.
+    #[arg(long, default_value_t = 1)]
+    ensemble: u32,
 }
 
 fn main() {
@@ -163,6 +172,12 @@ fn main() {
     }
     let bend = setup::sigmoid_bend_mm(&colon);
     println!("{scene} colon: {} rings x {} spokes, built in {:.2?}; hard push at the bend {bend:.0} mm from the anus", colon.rings(), colon.spokes, t0.elapsed());
+    let depth_mm = |k: u32| (bend - 20.0).max(0.0) + (a.start_offset_um + k) as f64 * 1e-3;
+    if a.ensemble > 1 {
+        ensemble(&colon, &config, a.ensemble, frames, depth_mm);
+        return;
+    }
+    config.start_depth_mm = Some(depth_mm(0));
     let mut world = World::in_process(&colon, config).unwrap_or_else(|e| {
         eprintln!("{e}");
         std::process::exit(1)
@@ -264,4 +279,79 @@ fn main() {
     for p in phases {
         println!("  {:>11} ({:4} frames): max penetration {:.3} mm, escaped at most {}", p.name, p.frames, p.pen, p.escaped);
     }
+}
+
+/// One run of an ensemble: its deepest penetration (mm), that frame, and the frames with an
+/// escaped sample.
+struct Outcome {
+    pen: f32,
+    frame: u64,
+    escaped_frames: u64,
+    error: Option<String>,
+}
+
+/// `n` runs of the colonoscopy from start depths `depth_mm(k)`, two at a time; prints each and
+/// the worst, and exits 1 if any run went deeper than 1 mm, let a sample escape or failed.
+fn ensemble(colon: &lumen_detect::Tube, config: &SimConfig, n: u32, frames: u64, depth_mm: impl Fn(u32) -> f64 + Sync) {
+    let next = std::sync::atomic::AtomicU32::new(0);
+    let outcomes = std::sync::Mutex::new(Vec::new());
+    let workers = std::thread::available_parallelism().map_or(1, |p| p.get()).min(n as usize);
+    std::thread::scope(|s| {
+        for _ in 0..workers {
+            s.spawn(|| loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                if k >= n {
+                    break;
+                }
+                let config = SimConfig { start_depth_mm: Some(depth_mm(k)), ..config.clone() };
+                let o = run_quiet(colon, config, frames);
+                println!(
+                    "start {:+.3} mm: max penetration {:.3} mm (frame {}), frames with escaped samples {}{}",
+                    depth_mm(k) - depth_mm(0),
+                    o.pen,
+                    o.frame,
+                    o.escaped_frames,
+                    o.error.as_deref().map(|e| format!(", stopped: {e}")).unwrap_or_default()
+                );
+                outcomes.lock().unwrap().push((k, o));
+            });
+        }
+    });
+    let outcomes = outcomes.into_inner().unwrap();
+    let (k, worst) = outcomes.iter().max_by(|a, b| a.1.pen.total_cmp(&b.1.pen)).expect("n > 1 runs");
+    let over = outcomes.iter().filter(|(_, o)| o.pen > 1.0 || o.escaped_frames > 0 || o.error.is_some()).count();
+    let mean = outcomes.iter().map(|(_, o)| o.pen as f64).sum::<f64>() / outcomes.len() as f64;
+    println!(
+        "ensemble of {n}: worst max penetration {:.3} mm (start {:+.3} mm, frame {}), mean {mean:.3} mm; runs over 1 mm, escaped or stopped: {over}",
+        worst.pen,
+        depth_mm(*k) - depth_mm(0),
+        worst.frame
+    );
+    if over > 0 {
+        std::process::exit(1);
+    }
+}
+
+/// One colonoscopy, silent.
+fn run_quiet(colon: &lumen_detect::Tube, config: SimConfig, frames: u64) -> Outcome {
+    let mut o = Outcome { pen: 0.0, frame: 0, escaped_frames: 0, error: None };
+    let mut world = match World::in_process(colon, config) {
+        Ok(w) => w,
+        Err(e) => return Outcome { error: Some(e.to_string()), ..o },
+    };
+    for _ in 0..frames {
+        match world.step() {
+            Ok(r) => {
+                if r.max_penetration_mm > o.pen {
+                    (o.pen, o.frame) = (r.max_penetration_mm, r.frame);
+                }
+                o.escaped_frames += (r.escaped > 0) as u64;
+            }
+            Err(e) => {
+                o.error = Some(e.to_string());
+                break;
+            }
+        }
+    }
+    o
 }
