@@ -448,3 +448,41 @@ fn a_scope_wider_than_the_lumen_is_held_all_around() {
         }
     }
 }
+
+/// A scope's tip (radius 6.5 mm, the rod's end) pressed 0.5 mm into the wall of the generated
+/// insufflated colon (seed 1: lumens of 25 to 50 mm, haustral folds, bends a third to a half
+/// of the lumen's radius) at every 4th ring and 6th spoke: between two folds, and on the inner
+/// side of a bend where ring planes fan, the wall is a crease whose second flank can lie many
+/// rings along the tube from the tip's own section. Every wall the reference puts within
+/// 0.05 mm of touching is a contact, at the reference's depth.
+#[test]
+fn hard_tip_in_the_creases_of_an_insufflated_colon() {
+    let (colon, _) = lumen_scene::insufflated::load(1).unwrap();
+    let reference = Reference::new(&colon, 0.5, 16);
+    let (mut placed, mut missed, mut worst) = (0, vec![], (0.0f32, 0usize, 0usize));
+    for i in (20..colon.rings() - 20).step_by(4) {
+        for k in (0..colon.spokes).step_by(6) {
+            let (c, v) = (colon.points[i], colon.spoke(i, k));
+            let len = norm(v);
+            if len < 12.0 {
+                continue;
+            }
+            let u = scale(v, 1.0 / len);
+            let tip = add(c, scale(u, len - 6.0));
+            let scope = rod(vec![add(tip, scale(u, -3.0)), tip], 6.5);
+            let cs = run(&interior(colon.clone(), scope.clone(), 4, Method::Signed));
+            placed += 1;
+            let want = 6.5 + reference.query(tip).sd;
+            let at_tip: Vec<&Contact> = cs.iter().filter(|c| c.sample == 4 && c.flags & FLAG_OTHER_WALL == 0).collect();
+            match at_tip.first() {
+                Some(c) if (c.depth - want).abs() > worst.0 => worst = ((c.depth - want).abs(), i, k),
+                Some(_) => {}
+                None if want > 0.05 => missed.push((i, k, want)),
+                None => {}
+            }
+        }
+    }
+    assert!(placed > 1000, "{placed} placements");
+    assert!(missed.is_empty(), "{} of {placed} tips missed (ring, spoke, reference depth): {:?}", missed.len(), &missed[..missed.len().min(10)]);
+    assert!(worst.0 < 0.05, "depth error {:.3} mm at ring {} spoke {} ({placed} placements)", worst.0, worst.1, worst.2);
+}

@@ -550,8 +550,24 @@ impl Probe<'_> {
         let (b, last) = (t.spokes, t.segments() - 1);
         let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
         let full = ((reach / spacing).ceil() as usize).min(BOX_RINGS);
-        let lo = from.seg.saturating_sub(full);
-        let hi = (from.seg + full).min(last);
+        let (mut lo, mut hi) = (from.seg.saturating_sub(full), (from.seg + full).min(last));
+        // Where ring planes fan about a bend's inner side, rings far along the tube hold wall
+        // within reach: the window goes on while the next ring's plane (less its spokes'
+        // offset from it and a segment's swing) passes nearer the point than `end`.
+        let limit = end.d2.sqrt() + spacing;
+        while hi < last && hi - from.seg < BOX_FAN_RINGS {
+            let j = hi + 1;
+            if -(p - t.point(j)).dot(&self.cache.ring(t, j).n) > limit + self.cache.plane_offset(t, j) {
+                break;
+            }
+            hi = j;
+        }
+        while lo > 0 && from.seg - lo < BOX_FAN_RINGS {
+            if (p - t.point(lo)).dot(&self.cache.ring(t, lo).n) > limit + self.cache.plane_offset(t, lo) {
+                break;
+            }
+            lo -= 1;
+        }
         // Ring `j` clamped to the tube: the spline's end segments repeat their end rings.
         let tip = |j: isize, k: usize| {
             let j = j.clamp(0, last as isize + 1) as usize;
@@ -753,6 +769,10 @@ const BOX_TRIES: usize = 6;
 
 /// Rings either side of the point's own whose patches [`Probe::box_descents`] reads at most.
 const BOX_RINGS: usize = 16;
+
+/// Rings either side of the point's own whose patches [`Probe::box_descents`] reads at most
+/// where ring planes fan about a bend (the import's fold check looks as far).
+const BOX_FAN_RINGS: usize = 64;
 
 /// Pockets [`scan_pockets`] returns at most.
 pub const SCAN_SEEDS: usize = 4;
