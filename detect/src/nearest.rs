@@ -237,6 +237,8 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
     // The ends of descents that lost to `end`: candidates for other walls.
     let mut spare: [Option<End>; 4 + SCAN_SEEDS] = [None; 4 + SCAN_SEEDS];
     let mut end = probe.first_descent(&from, start, s0, &mut spare[0]);
+    // A wall within this of the point is a contact (the rod's radius and the margin).
+    let touch = within;
     let within = if from.outside { 0.0 } else { within };
     // Seeds facing the point (see the module's "Seeds"), nearer than the first descent ended
     // or, where other walls are sought, near enough to descend to one.
@@ -253,7 +255,7 @@ pub fn nearest(t: &TubeView, cache: &mut TubeCache, p: &V3, from: Gap, reach: f3
         let d2 = end.d2;
         spare[2] = probe.ring_descent(&from, start, reach, &mut end).filter(|_| end.d2 < d2);
         probe.pocket_descents(&from, start.k, reach + within, &mut end, &mut spare[4..]);
-        spare[3] = probe.box_descents(&from, reach, &mut end);
+        spare[3] = probe.box_descents(&from, reach, touch, &mut end);
     } else if reach > 0.0 {
         spare[1] = probe.ring_descent(&from, start, reach, &mut end);
         if let Search::Across { own, nearby } = search {
@@ -538,14 +540,15 @@ impl Probe<'_> {
     }
 
     /// For the rod's ends: a descent from the middle of each wall patch (ring segment by strip,
-    /// every strip, the segments within `reach` along the tube) whose box, grown for the
+    /// every strip, the segments within `reach` along the tube and beyond while ring planes
+    /// pass within `touch` of the point, up to [`BOX_FAN_RINGS`]) whose box, grown for the
     /// spline's swing past its rings, lies nearer the point than `end`, nearest box first, at
     /// most [`BOX_TRIES`]. Where the lumen is wide its patches are too (12 mm strips on a
     /// lumen of 60 mm radius at 32 spokes): the nearest wall point can lie in a patch's middle,
     /// millimetres nearer than any of its corners and farther from any seed than the first
     /// descent's end, in a basin of its own. The nearer end becomes `end`; returns the end it
     /// displaced last, if any.
-    fn box_descents(&mut self, from: &Gap, reach: f32, end: &mut End) -> Option<End> {
+    fn box_descents(&mut self, from: &Gap, reach: f32, touch: f32, end: &mut End) -> Option<End> {
         let (t, p) = (self.t, self.p);
         let (b, last) = (t.spokes, t.segments() - 1);
         let spacing = (t.point(from.seg + 1) - t.point(from.seg)).norm().max(1e-6);
@@ -553,8 +556,9 @@ impl Probe<'_> {
         let (mut lo, mut hi) = (from.seg.saturating_sub(full), (from.seg + full).min(last));
         // Where ring planes fan about a bend's inner side, rings far along the tube hold wall
         // within reach: the window goes on while the next ring's plane (less its spokes'
-        // offset from it and a segment's swing) passes nearer the point than `end`.
-        let limit = end.d2.sqrt() + spacing;
+        // offset from it and a segment's swing) passes nearer the point than `end` and than
+        // `touch` (a wall any farther is no contact).
+        let limit = end.d2.sqrt().min(touch) + spacing;
         while hi < last && hi - from.seg < BOX_FAN_RINGS {
             let j = hi + 1;
             if -(p - t.point(j)).dot(&self.cache.ring(t, j).n) > limit + self.cache.plane_offset(t, j) {
