@@ -52,7 +52,8 @@ pub struct SimParams {
     /// pump energy into the scope, and a wall no contact reported at the frame's start cannot
     /// be reached within the frame. It bounds a scope point's displacement in each substep too
     /// (`max * dt / substeps`): a point the constraints throw further is moved back along its
-    /// path. Points it slows are counted in
+    /// path; and a wall node's inward move (a bulge springing back), not its giving way.
+    /// Points and nodes it slows are counted in
     /// [`crate::FrameReport::speed_limited`].
     pub max_speed_mm_s: f64,
     /// Time over which the scope's initial shape is released, s (default 0.15): its rest

@@ -508,14 +508,24 @@ impl Wall {
         self.active[slot].u
     }
 
-    /// Clamps every node's rate to `max` (mm/s); returns how many were clamped.
-    pub fn limit_speed(&mut self, max: f64) -> u32 {
+    /// Clamps every node's rate to `max` (mm/s) and its inward move in the substep of length
+    /// `h` (s) to `max * h`: a bulge springing back by projection closes on the scope no faster
+    /// than its rate may. Outward moves (the wall giving way) are not cut. Returns how many
+    /// nodes were slowed.
+    pub fn limit_speed(&mut self, max: f64, h: f64) -> u32 {
+        let reach = max * h;
         let mut n = 0;
         for t in &mut self.active {
+            let mut hit = false;
+            if t.u < t.prev - reach {
+                t.u = t.prev - reach;
+                hit = true;
+            }
             if t.v.abs() > max {
                 t.v = t.v.clamp(-max, max);
-                n += 1;
+                hit = true;
             }
+            n += hit as u32;
         }
         n
     }
@@ -734,6 +744,45 @@ mod tests {
         }
         w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
         assert_eq!(state, t.radial);
+    }
+
+    /// A bulge at the 15 mm limit springs back by projection faster than its rate may move it;
+    /// the speed limit cuts each substep's inward move to `max * h` (1000 mm/s: 1/16 mm), so a
+    /// frame closes it on the scope by at most 1 mm, and leaves a wall giving way uncut.
+    #[test]
+    fn the_speed_limit_bounds_a_bulge_springing_back() {
+        let t = tube();
+        let (max, h) = (1000.0, 1e-3 / 16.0);
+        let run = |limit: bool| {
+            let mut w = Wall::new(&t, WallParams::default());
+            let s = press(&mut w, 50 * 32 + 3, 15.0);
+            let before = w.node_u(s);
+            let mut slowed = 0;
+            for _ in 0..16 {
+                let was = w.node_u(s);
+                w.predict(h);
+                w.solve(h);
+                w.update_velocity(h);
+                if limit {
+                    slowed += w.limit_speed(max, h);
+                    assert!(w.node_u(s) >= was - max * h - 1e-12, "{} -> {}", was, w.node_u(s));
+                }
+            }
+            (before - w.node_u(s), slowed)
+        };
+        let (free, _) = run(false);
+        let (limited, slowed) = run(true);
+        assert!(free > 1.2, "without the limit the bulge springs back {free:.3} mm in a frame");
+        assert!(limited <= 1.0 + 1e-9 && limited > 0.9, "with it, {limited:.3} mm");
+        assert!(slowed >= 16);
+        // Pushed outward by a contact, a node moves its whole push within the substep.
+        let mut w = Wall::new(&t, WallParams::default());
+        let s = press(&mut w, 50 * 32 + 3, 0.0);
+        w.predict(h);
+        assert_eq!(w.push(s, 2.0), 2.0);
+        w.update_velocity(h);
+        w.limit_speed(max, h);
+        assert_eq!(w.node_u(s), 2.0);
     }
 
     #[test]

@@ -571,7 +571,7 @@ impl<S: ContactSource> World<S> {
             self.contacts.stop_separation(&mut self.rod, &mut self.wall);
             if p.max_speed_mm_s > 0.0 {
                 limited += self.rod.limit_speed(p.max_speed_mm_s, h);
-                limited += self.wall.limit_speed(p.max_speed_mm_s);
+                limited += self.wall.limit_speed(p.max_speed_mm_s, h);
             }
         }
         self.speed_limited = limited;

@@ -209,11 +209,10 @@ fn the_scripted_colonoscopy_in_the_real_colon_never_escapes() {
     // ring planes once cost tens of millimetres, the sections' readings alone 3.4 mm.
     let (worst, force) = common::short_run(&colon, "the real colon");
     assert!(force > 30.0, "the hard push pushed hard: {force:.1} N");
-    // The accuracy limit. Measured 2026-12-07: 0.595 mm (frame 245, the twist: a sample of the
-    // tip's end segment that no contact named at the frame's start, 0.6 mm into the wall at its
-    // end); 0.454 mm (frame 242, the same kind) without the detector's pass from the neighbours'
-    // nearest walls, whose more accurate readings move the trajectory; 0.311 mm without the
-    // crease faces of the scope's end segments (which once took it from 0.607 to 0.207 mm: its
-    // tip slid along one face of a fold into the next within a frame). docs/decisions/sim.md.
-    assert!(worst <= 0.65, "max penetration {worst:.3} mm");
+    // The accuracy limit, over the scatter of the trajectory: this run from start depths 0 to 7
+    // um deeper (`lumen-sim-run --scene gca --frames 600 --script short --relax 0.05 --ensemble
+    // 8`, 2026-12-07) went 0.18 to 0.81 mm deep (mean 0.53), and 0.876 mm at worst before the
+    // wall's spring-back was speed-limited; one run's figure moves by tenths of a millimetre with
+    // any change to what a frame carries. docs/decisions/sim.md.
+    assert!(worst <= 0.9, "max penetration {worst:.3} mm");
 }
