@@ -470,11 +470,10 @@ fn hard_tip_in_the_creases_of_an_insufflated_colon() {
             let u = scale(v, 1.0 / len);
             let tip = add(c, scale(u, len - 6.0));
             let scope = rod(vec![add(tip, scale(u, -3.0)), tip], 6.5);
-            let cs = run(&interior(colon.clone(), scope.clone(), 4, Method::Signed));
+            let cs = run(&interior(colon.clone(), scope, 4, Method::Signed));
             placed += 1;
             let want = 6.5 + reference.query(tip).sd;
-            let at_tip: Vec<&Contact> = cs.iter().filter(|c| c.sample == 4 && c.flags & FLAG_OTHER_WALL == 0).collect();
-            match at_tip.first() {
+            match cs.iter().find(|c| c.sample == 4 && c.flags & FLAG_OTHER_WALL == 0) {
                 Some(c) if (c.depth - want).abs() > worst.0 => worst = ((c.depth - want).abs(), i, k),
                 Some(_) => {}
                 None if want > 0.05 => missed.push((i, k, want)),

@@ -561,13 +561,13 @@ impl Probe<'_> {
         let limit = end.d2.sqrt().min(touch) + spacing;
         while hi < last && hi - from.seg < BOX_FAN_RINGS {
             let j = hi + 1;
-            if -(p - t.point(j)).dot(&self.cache.ring(t, j).n) > limit + self.cache.plane_offset(t, j) {
+            if -self.cache.plane(t, j, p) > limit + self.cache.plane_offset(t, j) {
                 break;
             }
             hi = j;
         }
         while lo > 0 && from.seg - lo < BOX_FAN_RINGS {
-            if (p - t.point(lo)).dot(&self.cache.ring(t, lo).n) > limit + self.cache.plane_offset(t, lo) {
+            if self.cache.plane(t, lo, p) > limit + self.cache.plane_offset(t, lo) {
                 break;
             }
             lo -= 1;

@@ -493,7 +493,7 @@ impl TubeCache {
     /// Always inlined: a walk reads three or four planes a sample, and a call costs more than the
     /// cached plane's dot product (docs/decisions/detect.md).
     #[inline(always)]
-    fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
+    pub(crate) fn plane(&mut self, t: &TubeView, i: usize, p: &V3) -> f32 {
         let r = self.ring(t, i);
         (p - t.point(i)).dot(&r.n)
     }

@@ -92,8 +92,8 @@ pub struct SimConfig {
     pub wall: WallParams,
     pub sim: SimParams,
     pub script: Script,
-    /// Depth of the scope's tip along the midline at the start, mm (default: 20 mm before the
-    /// sigmoid's sharpest bend, [`crate::setup::sigmoid_bend_mm`], so the insertion brings it there).
+    /// Depth of the scope's tip along the midline at the start, mm (default:
+    /// [`crate::setup::start_depth_mm`], 20 mm before the sigmoid's sharpest bend).
     pub start_depth_mm: Option<f64>,
 }
 

@@ -10,7 +10,7 @@
 //!   [`lumen_scene::endoscope::Insertion`] lays it (riding the outer wall of bends), but not
 //!   pressing into the wall, the rest straight out of the anus.
 //! - [`sigmoid_bend_mm`]: where the hard push happens: the sharpest bend of the midline in the
-//!   sigmoid's stretch of the colon.
+//!   sigmoid's stretch of the colon; [`start_depth_mm`], the tip's start 20 mm before it.
 
 use crate::config::SimParams;
 use crate::rod::RodParams;
@@ -59,6 +59,12 @@ pub fn insertion_axis(tube: &Tube) -> (V3d, V3d) {
     let lumen = Lumen::new(tube);
     let p = tube.points[0];
     (crate::v3(p), lumen.normal(0))
+}
+
+/// Depth of the scope's tip along the midline at the start when none is given, mm: 20 mm before
+/// the sigmoid's sharpest bend ([`sigmoid_bend_mm`]), so the insertion brings it there.
+pub fn start_depth_mm(tube: &Tube) -> f64 {
+    (sigmoid_bend_mm(tube) - 20.0).max(0.0)
 }
 
 /// Arc length of the midline (mm) at its sharpest bend between 12% and 35% of its length

@@ -274,7 +274,7 @@ impl World<InProcess> {
 /// The scope's starting control points: laid by [`setup::insertion_pose`] with its tip at
 /// `config.start_depth_mm`, or 20 mm before the sigmoid's sharpest bend.
 fn start_pose(tube: &Tube, config: &SimConfig) -> Vec<V3d> {
-    let depth = config.start_depth_mm.unwrap_or_else(|| (setup::sigmoid_bend_mm(tube) - 20.0).max(0.0));
+    let depth = config.start_depth_mm.unwrap_or_else(|| setup::start_depth_mm(tube));
     setup::insertion_pose(tube, &config.rod, depth)
 }
 

@@ -172,7 +172,8 @@ fn main() {
     }
     let bend = setup::sigmoid_bend_mm(&colon);
     println!("{scene} colon: {} rings x {} spokes, built in {:.2?}; hard push at the bend {bend:.0} mm from the anus", colon.rings(), colon.spokes, t0.elapsed());
-    let depth_mm = |k: u32| (bend - 20.0).max(0.0) + (a.start_offset_um + k) as f64 * 1e-3;
+    let start = setup::start_depth_mm(&colon);
+    let depth_mm = |k: u32| start + (a.start_offset_um + k) as f64 * 1e-3;
     if a.ensemble > 1 {
         ensemble(&colon, &config, a.ensemble, frames, depth_mm);
         return;
