@@ -404,6 +404,63 @@ fn nearest_reports_no_wall_past_a_fold_crest() {
     assert!(on.missed.is_empty());
 }
 
+/// A straight tube along +x (rings every 1 mm, radius 20) with a fold thinner than the ring
+/// spacing: ring 40's spokes 4 to 10 (of 32) reach 6 mm from the axis, with a spur on ring 39
+/// and a tail over rings 41 and 42, so the fold is a blade 2 mm wide at its root whose crest
+/// runs along ring 40's section and across the next rings: where a thin haustral fold or the
+/// septum between two loops lies in one ring's plane and its neighbours' rays pass beside it
+/// (a generated insufflated colon's hairpin, imported at 48 spokes, has one 35 mm tall).
+fn blade() -> Tube {
+    tube(
+        81,
+        32,
+        |i| [i as f32, 0.0, 0.0],
+        |i, k| {
+            let a = k as f32 * TAU / 32.0;
+            let short = (i == 39 && k == 5) || (i == 40 && (4..=10).contains(&k)) || (i == 41 && (7..=10).contains(&k)) || (i == 42 && (9..=10).contains(&k));
+            let r = if short { 6.0 } else { 20.0 };
+            [0.0, r * a.cos(), r * a.sin()]
+        },
+    )
+}
+
+#[test]
+fn nearest_reads_the_crest_of_a_fold_thinner_than_the_ring_spacing() {
+    // A scope's tip (radius 6.5) before and behind the blade, 1 to 6 mm from ring 40, 0 to 14
+    // mm from the axis, over the blade's spokes and past its sides: its nearest wall point
+    // often lies on a ring's section (the crest, or the blade's side), where the patch on the
+    // tip's side faces it and the patch beyond the ring faces away, and where each patch's
+    // Newton step sends a descent over the ring into the other. Every wall the reference puts
+    // within 0.05 mm of touching is a contact, at the reference's depth.
+    let colon = blade();
+    let reference = Reference::new(&colon, 0.5, 16);
+    let (mut placed, mut touching, mut missed, mut worst) = (0, 0, vec![], (0.0f32, [0.0f32; 3]));
+    for dir in [-1.0f32, 1.0] {
+        for gap in [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0] {
+            for rho in [0.0f32, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0] {
+                for step in 0..21 {
+                    let a = (2.0 + 0.5 * step as f32) * TAU / 32.0;
+                    let tip = [40.0 + dir * gap, rho * a.cos(), rho * a.sin()];
+                    let scope = rod(vec![add(tip, [dir * 3.0, 0.0, 0.0]), tip], 6.5);
+                    let cs = run(&interior(colon.clone(), scope, 4, Method::Signed));
+                    placed += 1;
+                    let want = 6.5 + reference.query(tip).sd;
+                    touching += usize::from(want > 0.05);
+                    match cs.iter().find(|c| c.sample == 4 && c.flags & FLAG_OTHER_WALL == 0) {
+                        Some(c) if (c.depth - want).abs() > worst.0 => worst = ((c.depth - want).abs(), tip),
+                        Some(_) => {}
+                        None if want > 0.05 => missed.push((tip, want)),
+                        None => {}
+                    }
+                }
+            }
+        }
+    }
+    assert!(touching > 1000, "{touching} of {placed} tips touch the wall");
+    assert!(missed.is_empty(), "{} of {placed} tips missed (tip, reference depth): {:?}", missed.len(), &missed[..missed.len().min(10)]);
+    assert!(worst.0 < 0.05, "depth error {:.3} mm at {:?} ({placed} placements)", worst.0, worst.1);
+}
+
 /// A straight tube along +x whose sections are ellipses of semi-axes `a` (y) and `b` (z).
 fn elliptic(a: f32, b: f32) -> Tube {
     tube(

@@ -738,13 +738,27 @@ fn turned(out: &V3, normal: &V3, cos: f32) -> bool {
 /// The contact normal at the end of a descent and the distance to it: the direction between
 /// the point and the wall point, outward (from the wall to an outside point, from an inside
 /// point to the wall), or the wall's own normal where the point is on it; `None` where the wall
-/// there faces the other way (a fold of the surface seen from behind).
+/// there faces the other way (a fold of the surface seen from behind), and on a crease (a
+/// ring's section, a spoke's line) where no patch that meets there faces the point.
 fn judge(pr: &mut Probe, e: &End) -> Option<(V3, f32)> {
-    let (t, cache, p, side, tol) = (pr.t, &mut *pr.cache, pr.p, pr.side, pr.tol);
+    let (t, p, side, tol) = (pr.t, pr.p, pr.side, pr.tol);
     let dist = e.d2.sqrt();
-    let wall_out = e.here.outward(cache.ring(t, e.at.seg).o);
+    let wall_out = e.here.outward(pr.cache.ring(t, e.at.seg).o);
     let normal = if dist > tol { (p - e.here.s) * (side / dist) } else { wall_out.try_normalize(0.0)? };
-    (normal.dot(&wall_out) > 0.0).then_some((normal, dist))
+    if normal.dot(&wall_out) > 0.0 {
+        return Some((normal, dist));
+    }
+    // On a crease, the patches that meet there: on a fold thinner than the ring spacing the
+    // nearest point is the crest on a ring's section, and the patch beyond the ring faces away
+    // from a point in front of the fold while the patch before it faces the point.
+    let (at, b, last) = (e.at, t.spokes, t.segments() - 1);
+    let across = [
+        (at.u <= EDGE && at.seg > 0).then(|| Patch { seg: at.seg - 1, u: 1.0, ..at }),
+        (at.u >= 1.0 - EDGE && at.seg < last).then(|| Patch { seg: at.seg + 1, u: 0.0, ..at }),
+        (at.l <= EDGE).then(|| Patch { k: prev(at.k, b), l: 1.0, ..at }),
+        (at.l >= 1.0 - EDGE).then(|| Patch { k: next(at.k, b), l: 0.0, ..at }),
+    ];
+    across.into_iter().flatten().any(|q| normal.dot(&pr.local(q).outward(pr.cache.ring(t, q.seg).o)) > 0.0).then_some((normal, dist))
 }
 
 /// `from` moved to the end of a descent.
@@ -947,6 +961,8 @@ fn descend(pr: &mut Probe, mut at: Patch, mut here: Local, first_du: Option<f32>
     let mut d2 = (p - here.s).norm_squared();
     let mut pin = Pins::default();
     let mut settled = false;
+    // The edges the last step crossed without moving (-1 lower, +1 upper, 0 none), u and l.
+    let mut crossed = (0i8, 0i8);
     for it in 0..iterations {
         let r = p - here.s;
         let (gu, gl) = (r.dot(&here.su), r.dot(&here.sl));
@@ -988,10 +1004,23 @@ fn descend(pr: &mut Probe, mut at: Patch, mut here: Local, first_du: Option<f32>
         let mut el = if fl < 1.0 && fl <= fu { edge(dl) } else { 0 };
         if f <= EDGE {
             // Already on the edge the step leaves by (a descent started on a ring or a spoke's
-            // tip line): over it without moving, or pin it.
+            // tip line): over it without moving, or pin it. Straight back over the edge just
+            // crossed in place is a crease too: each patch's Newton step, turned by the other
+            // coordinate, leaves it for the other (on a fold thinner than the ring spacing),
+            // and crossing again would spend the descent's steps without moving.
+            let (bu, bl) = (eu != 0 && eu == -crossed.0, el != 0 && el == -crossed.1);
+            if bu {
+                (pin.u, eu) = (eu, 0);
+            }
+            if bl {
+                (pin.l, el) = (el, 0);
+            }
+            let before = (at.seg, at.k);
             (at, here) = across_edges(pr, at, here, eu, el, &mut pin);
+            crossed = (if at.seg != before.0 { eu } else { 0 }, if at.k != before.1 { el } else { 0 });
             continue;
         }
+        crossed = (0, 0);
         let (mut du, mut dl) = (du * f, dl * f);
         let mut moved = None;
         for _ in 0..3 {
