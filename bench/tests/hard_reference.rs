@@ -311,13 +311,19 @@ fn ring_fold() -> Tube {
             9.0 + 11.0 * (x - 43.0) / 3.0
         }
     };
+    along_x(|i, _| radius(i as f32))
+}
+
+/// A straight tube along +x: 81 rings 1 mm apart, 32 spokes, spoke `k` of ring `i` `radius(i,
+/// k)` long.
+fn along_x(radius: impl Fn(usize, usize) -> f32) -> Tube {
     tube(
         81,
         32,
         |i| [i as f32, 0.0, 0.0],
         |i, k| {
             let a = k as f32 * TAU / 32.0;
-            let r = radius(i as f32);
+            let r = radius(i, k);
             [0.0, r * a.cos(), r * a.sin()]
         },
     )
@@ -411,17 +417,14 @@ fn nearest_reports_no_wall_past_a_fold_crest() {
 /// septum between two loops lies in one ring's plane and its neighbours' rays pass beside it
 /// (a generated insufflated colon's hairpin, imported at 48 spokes, has one 35 mm tall).
 fn blade() -> Tube {
-    tube(
-        81,
-        32,
-        |i| [i as f32, 0.0, 0.0],
-        |i, k| {
-            let a = k as f32 * TAU / 32.0;
-            let short = (i == 39 && k == 5) || (i == 40 && (4..=10).contains(&k)) || (i == 41 && (7..=10).contains(&k)) || (i == 42 && (9..=10).contains(&k));
-            let r = if short { 6.0 } else { 20.0 };
-            [0.0, r * a.cos(), r * a.sin()]
-        },
-    )
+    along_x(|i, k| {
+        let short = (i == 39 && k == 5) || (i == 40 && (4..=10).contains(&k)) || (i == 41 && (7..=10).contains(&k)) || (i == 42 && (9..=10).contains(&k));
+        if short {
+            6.0
+        } else {
+            20.0
+        }
+    })
 }
 
 #[test]
