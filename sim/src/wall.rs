@@ -18,9 +18,13 @@
 //! A pushed wall therefore forms a smooth dimple at least two node spacings wide, as a wall
 //! under a 13 mm scope does, instead of a pocket between rings with flanks and creases where
 //! the contact normals turn from frame to frame and throw the scope about; and a frame solves
-//! a handful of nodes, not thousands of tips. Each node has the mass and the stiffness of its patch of wall
-//! (`m = rho_A A`, `k = K_p A`, `A` the node's area, `rho_A` the wall's areal mass, `K_p` the
-//! pressure needed per mm of displacement), and:
+//! a handful of nodes, not thousands of tips. Each node has the stiffness of its own patch of
+//! wall, `k = K_p A` (`A` its row's patch: its rings' mean spoke length around, `R` rings
+//! along; `K_p` the pressure needed per mm of displacement), so an anal canal narrower than the
+//! scope is as soft as its few millimetres of circumference; and the mass of a patch at the
+//! colon's median radius, `m = rho_A A_med` (`rho_A` the wall's areal mass): a canal's nodes as
+//! light as their patch, tied by the membrane to the rectum's, went deeper where the canal
+//! opens out (`docs/decisions/sim.md`). Each node has:
 //! - a spring to rest, `C = U`, compliance `1 / k`;
 //! - a membrane coupling to its four neighbour nodes, `C = U_a - U_b`, compliance
 //!   `1 / (c_m k)`, which spreads a deep bulge over neighbouring nodes;
@@ -70,7 +74,7 @@ pub struct WallParams {
     /// centimetre moves the wall 5 mm).
     pub stiffness_kpa_per_mm: f64,
     /// Stiffness of the coupling between neighbour nodes, as a multiple of a node's own
-    /// spring (default 2).
+    /// spring (of the mean of the two rows' where they differ; default 2).
     pub membrane_ratio: f64,
     /// Mass per area of the wall and what moves with it, kg/m^2 (default 5: a 3 mm wall and
     /// about as much again of tissue and fluid).
@@ -119,6 +123,9 @@ pub struct ActiveNode {
     /// Its rate, mm/s.
     pub v: f64,
     prev: f64,
+    /// Inverse mass (1/kg) and spring stiffness (N/m), its row's ([`Wall::node_mass_stiffness`]).
+    w: f64,
+    k: f64,
     /// Slots of the neighbours (row - 1, row + 1, column - 1, column + 1), or `AT_REST` /
     /// `NO_NEIGHBOUR`.
     nb: [u32; 4],
@@ -161,8 +168,10 @@ pub struct Wall {
     spoke_w: Vec<(u32, [f64; 3])>,
     /// Unit rest direction of every tip.
     dir: Vec<[f32; 3]>,
-    node_mass: f64,
-    node_stiffness: f64,
+    /// Per node row: the area of one of its nodes' patches of wall, mm^2; and a patch's at the
+    /// median radius (every node's mass).
+    row_area: Vec<f64>,
+    mid_area: f64,
     /// Rest spokes, relative to their control point.
     rest: Vec<[f32; 3]>,
     /// Control points (they never move).
@@ -209,7 +218,20 @@ impl Wall {
         for k in 0..spokes {
             block_spokes[Self::nearest_col(k, spokes, cols).0].push(k as u32);
         }
-        let area = per_row as f64 * spacing * std::f64::consts::TAU * r_med / cols as f64;
+        // Each node row's patch: its rings' mean spoke length around, `per_row` rings along (the
+        // padding rows take their neighbours'): an anal canal of 3 mm in a colon of 40 mm is a
+        // wall a thirteenth as wide, and as soft.
+        let ring_r: Vec<f64> = (0..rings).map(|i| (0..spokes).map(|k| norm3(tube.radial[i * spokes + k])).sum::<f64>() / spokes as f64).collect();
+        let mut row_area: Vec<f64> = std::iter::once(0.0)
+            .chain(block_rings.iter().map(|&(a, b)| {
+                let r = if a < b { ring_r[a as usize..b as usize].iter().sum::<f64>() / (b - a) as f64 } else { r_med };
+                per_row as f64 * spacing * std::f64::consts::TAU * r.max(1e-3) / cols as f64
+            }))
+            .chain(std::iter::once(0.0))
+            .collect();
+        let mid_area = per_row as f64 * spacing * std::f64::consts::TAU * r_med / cols as f64;
+        row_area[0] = row_area[1];
+        row_area[rows - 1] = row_area[rows - 2];
         let blocks = block_rows * cols;
         let ring_w = (0..rings)
             .map(|i| {
@@ -236,8 +258,8 @@ impl Wall {
             })
             .collect();
         Self {
-            node_mass: params.areal_mass_kg_m2 * 1e-6 * area,
-            node_stiffness: params.stiffness_kpa_per_mm * area,
+            row_area,
+            mid_area,
             params,
             rings,
             spokes,
@@ -276,9 +298,11 @@ impl Wall {
         (self.per_row, self.rows, self.cols)
     }
 
-    /// Mass (kg) and spring stiffness (N/m) of one node.
-    pub fn node_mass_stiffness(&self) -> (f64, f64) {
-        (self.node_mass, self.node_stiffness)
+    /// Mass (kg) and spring stiffness (N/m) of a node of row `row`: `rho_A A_med` and `K_p A`,
+    /// `A` the row's patch of wall and `A_med` a patch at the colon's median radius.
+    pub fn node_mass_stiffness(&self, row: usize) -> (f64, f64) {
+        let a = self.row_area[row.min(self.rows - 1)];
+        (self.params.areal_mass_kg_m2 * 1e-6 * self.mid_area, self.params.stiffness_kpa_per_mm * a)
     }
 
     /// The active nodes, in activation order.
@@ -376,7 +400,8 @@ impl Wall {
             return s as usize;
         }
         let s = self.active.len();
-        self.active.push(ActiveNode { node, u: 0.0, v: 0.0, prev: 0.0, nb: [AT_REST; 4], touched: false });
+        let (m, k) = self.node_mass_stiffness(node as usize / self.cols);
+        self.active.push(ActiveNode { node, u: 0.0, v: 0.0, prev: 0.0, w: 1.0 / m, k, nb: [AT_REST; 4], touched: false });
         self.slot[node as usize] = s as u32;
         s
     }
@@ -445,37 +470,35 @@ impl Wall {
         }
     }
 
-    /// Inverse mass of a node, 1/kg.
-    pub fn node_inv_mass(&self) -> f64 {
-        1.0 / self.node_mass
+    /// Inverse mass of active node `slot`, 1/kg.
+    #[inline]
+    pub fn node_inv_mass(&self, slot: usize) -> f64 {
+        self.active[slot].w
     }
 
     /// Projects the springs, the membrane and the range once.
     pub fn solve(&mut self, h: f64) {
-        let w = 1.0 / self.node_mass;
         let ih2 = 1.0 / (h * h);
-        let a_spring = ih2 / self.node_stiffness;
-        let a_edge = ih2 / (self.params.membrane_ratio * self.node_stiffness).max(1e-12);
-        let spring = w / (w + a_spring);
-        let one_sided = w / (w + a_edge);
-        let two_sided = 1.0 / (2.0 * w + a_edge);
+        let ratio = self.params.membrane_ratio;
+        // A membrane edge between two rows: the mean of their stiffnesses.
+        let a_edge = |k: f64| ih2 / (ratio * k).max(1e-12);
         let hi = self.params.max_out_mm;
         for s in 0..self.active.len() {
-            let u = self.active[s].u;
-            self.active[s].u = u - u * spring;
-            let nb = self.active[s].nb;
+            let ActiveNode { u, w, k, nb, .. } = self.active[s];
+            self.active[s].u = u - u * (w / (w + ih2 / k));
             for &o in &nb {
                 if o == NO_NEIGHBOUR {
                     continue;
                 }
                 if o == AT_REST {
                     let ua = self.active[s].u;
-                    self.active[s].u = ua - ua * one_sided;
+                    self.active[s].u = ua - ua * (w / (w + a_edge(k)));
                 } else if (o as usize) > s {
-                    let (ua, ub) = (self.active[s].u, self.active[o as usize].u);
-                    let dl = -(ua - ub) * two_sided;
+                    let b = self.active[o as usize];
+                    let ua = self.active[s].u;
+                    let dl = -(ua - b.u) / (w + b.w + a_edge(0.5 * (k + b.k)));
                     self.active[s].u = ua + w * dl;
-                    self.active[o as usize].u = ub - w * dl;
+                    self.active[o as usize].u = b.u - b.w * dl;
                 }
             }
         }
@@ -744,6 +767,35 @@ mod tests {
         }
         w.write_spokes(false, |tip, sp| state[tip as usize] = sp);
         assert_eq!(state, t.radial);
+    }
+
+    /// A canal of 3 mm in a colon of 30 mm: its nodes are a tenth as stiff (their patch of wall
+    /// a tenth as wide) and as heavy as the others, so the same push opens it further and it
+    /// springs back more slowly.
+    #[test]
+    fn a_narrow_canal_is_a_softer_wall() {
+        let b = 32;
+        let radius = |i: usize| if i < 30 { 3.0 } else { 30.0 };
+        let ring = |i: usize| {
+            (0..b).map(move |k| {
+                let a = k as f32 * std::f32::consts::TAU / b as f32;
+                [0.0, radius(i) * a.cos(), radius(i) * a.sin()]
+            })
+        };
+        let t = Tube::new((0..100).map(|i| [i as f32 * 1.2, 0.0, 0.0]).collect(), (0..100).flat_map(ring).collect(), b).unwrap();
+        let mut w = Wall::new(&t, WallParams::default());
+        let (per_row, _, _) = w.grid();
+        let row = |ring: usize| (2 * ring + per_row) / (2 * per_row) + 1;
+        let ((m_canal, k_canal), (m_wide, k_wide)) = (w.node_mass_stiffness(row(12)), w.node_mass_stiffness(row(70)));
+        assert_eq!(m_canal, m_wide);
+        assert!((k_canal / k_wide - 0.1).abs() < 1e-9, "stiffness {k_canal} against {k_wide}");
+        // The same displacement, one frame later: the canal keeps more of it.
+        let (canal, wide) = (12 * 32 + 3, 70 * 32 + 3);
+        let (sc, sw) = (press(&mut w, canal, 3.0), press(&mut w, wide, 3.0));
+        let (uc, uw) = (w.node_u(sc), w.node_u(sw));
+        assert!((uc - uw).abs() < 1e-12, "pushed alike: {uc} {uw}");
+        substeps(&mut w);
+        assert!(w.node_u(sc) > w.node_u(sw) + 0.1, "after a frame: canal {} wide {}", w.node_u(sc), w.node_u(sw));
     }
 
     /// A bulge at the 15 mm limit springs back by projection faster than its rate may move it;
