@@ -87,6 +87,23 @@ impl Patch {
     fn of(g: &Gap) -> Self {
         Self { seg: g.seg, k: g.k, u: g.u.clamp(0.0, 1.0), l: g.l.clamp(0.0, 1.0) }
     }
+
+    /// The same wall point in the segment beyond edge `e` of this one (-1: `u = 0`, +1:
+    /// `u = 1`), if the tube goes on there (`last`: its last segment).
+    fn across_u(self, e: i8, last: usize) -> Option<Self> {
+        let seg = if e < 0 { self.seg.checked_sub(1) } else { (self.seg < last).then_some(self.seg + 1) };
+        seg.map(|seg| Self { seg, u: if e < 0 { 1.0 } else { 0.0 }, ..self })
+    }
+
+    /// The same wall point in the strip beyond edge `e` of this one (-1: `l = 0`, +1: `l = 1`),
+    /// of `b` spokes.
+    fn across_l(self, e: i8, b: usize) -> Self {
+        if e < 0 {
+            Self { k: prev(self.k, b), l: 1.0, ..self }
+        } else {
+            Self { k: next(self.k, b), l: 0.0, ..self }
+        }
+    }
 }
 
 /// Rings within `dist` along the tube of segment `seg` (at most [`MAX_CROSSINGS`]): where they
@@ -751,13 +768,17 @@ fn judge(pr: &mut Probe, e: &End) -> Option<(V3, f32)> {
     // On a crease, the patches that meet there: on a fold thinner than the ring spacing the
     // nearest point is the crest on a ring's section, and the patch beyond the ring faces away
     // from a point in front of the fold while the patch before it faces the point.
-    let (at, b, last) = (e.at, t.spokes, t.segments() - 1);
-    let across = [
-        (at.u <= EDGE && at.seg > 0).then(|| Patch { seg: at.seg - 1, u: 1.0, ..at }),
-        (at.u >= 1.0 - EDGE && at.seg < last).then(|| Patch { seg: at.seg + 1, u: 0.0, ..at }),
-        (at.l <= EDGE).then(|| Patch { k: prev(at.k, b), l: 1.0, ..at }),
-        (at.l >= 1.0 - EDGE).then(|| Patch { k: next(at.k, b), l: 0.0, ..at }),
-    ];
+    let edge = |x: f32| {
+        if x <= EDGE {
+            -1
+        } else if x >= 1.0 - EDGE {
+            1
+        } else {
+            0
+        }
+    };
+    let (at, eu, el) = (e.at, edge(e.at.u), edge(e.at.l));
+    let across = [(eu != 0).then(|| at.across_u(eu, t.segments() - 1)).flatten(), (el != 0).then(|| at.across_l(el, t.spokes))];
     across.into_iter().flatten().any(|q| normal.dot(&pr.local(q).outward(pr.cache.ring(t, q.seg).o)) > 0.0).then_some((normal, dist))
 }
 
@@ -1063,18 +1084,15 @@ fn descend(pr: &mut Probe, mut at: Patch, mut here: Local, first_du: Option<f32>
 /// neighbouring patch if the descent goes on into it; if it would come straight back, the edge
 /// is a crease: pins it.
 fn across_edges(pr: &mut Probe, mut at: Patch, mut here: Local, eu: i8, el: i8, pin: &mut Pins) -> (Patch, Local) {
-    let b = pr.t.spokes;
     if el != 0 {
-        let across = if el < 0 { Patch { k: prev(at.k, b), l: 1.0, ..at } } else { Patch { k: next(at.k, b), l: 0.0, ..at } };
+        let across = at.across_l(el, pr.t.spokes);
         match goes_on(pr, across, el, |w| w.sl) {
             Some(there) => (at, here) = (across, there),
             None => pin.l = el,
         }
     }
     if eu != 0 {
-        let last = pr.t.segments() - 1;
-        let seg = if eu < 0 { at.seg.checked_sub(1) } else { (at.seg < last).then_some(at.seg + 1) };
-        let across = seg.map(|seg| Patch { seg, u: if eu < 0 { 1.0 } else { 0.0 }, ..at });
+        let across = at.across_u(eu, pr.t.segments() - 1);
         match across.and_then(|a| goes_on(pr, a, eu, |w| w.su).map(|there| (a, there))) {
             Some((a, there)) => (at, here) = (a, there),
             None => pin.u = eu,

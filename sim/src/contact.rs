@@ -27,7 +27,7 @@
 //! Projection (inequality, compliance 0, mass-weighted): when `C < 0`,
 //! `dlambda = -C / W`, `W = sum_a a_i^2 w_i + sum_b b_m^2 w_m` (`a = (1 - t, t)`, `w` the
 //! inverse masses; a wall node already at its outer limit counts as immovable), then
-//! `dx_i = -a_i w_i n dlambda` on the rod and `dU_m = G_m w_m dlambda` on the wall
+//! `dx_i = -a_i w_i n dlambda` on the rod and `dU_m = G_m w_node dlambda` on the wall
 //! (`dx = +b_j w_j n dlambda` on the other rod segment for a self contact). When a node stops at
 //! its limit part-way, the rod's share grows to close the gap.
 //!
@@ -301,6 +301,7 @@ impl ContactSet {
 
     /// Projects every constraint once; returns the largest violation met (mm, >= 0).
     pub fn project(&mut self, rod: &mut Rod, wall: &mut Wall) -> f64 {
+        let w_node = wall.node_inv_mass();
         let mut worst = 0.0f64;
         if self.hit.len() != self.list.len() {
             self.begin_substep();
@@ -317,7 +318,7 @@ impl ContactSet {
                         let s = slots[e] as usize;
                         c += g[e] * wall.node_u(s);
                         if wall.can_move_out(s) {
-                            wsum += g[e] * g[e] * wall.node_inv_mass(s);
+                            wsum += g[e] * g[e] * w_node;
                         }
                     }
                 }
@@ -341,7 +342,7 @@ impl ContactSet {
                     for e in 0..n as usize {
                         let s = slots[e] as usize;
                         if wall.can_move_out(s) {
-                            gained += g[e] * wall.push(s, g[e] * wall.node_inv_mass(s) * dl);
+                            gained += g[e] * wall.push(s, g[e] * w_node * dl);
                         }
                     }
                     if rod_w > 0.0 {
@@ -366,6 +367,7 @@ impl ContactSet {
     /// `dv = w grad(C) dlambda`, `dlambda = -dC/dt / W`. Without it a sample pushed out of one face
     /// of a corner leaves at `depth / h` and crosses into the other face within the frame.
     pub fn stop_separation(&self, rod: &mut Rod, wall: &mut Wall) {
+        let w_node = wall.node_inv_mass();
         for (k, _) in self.list.iter().zip(&self.hit).filter(|(_, &h)| h) {
             let (a0, a1) = (k.a[0] as usize, k.a[1] as usize);
             let va = rod.v[a0] * k.wa[0] + rod.v[a1] * k.wa[1];
@@ -376,7 +378,7 @@ impl ContactSet {
                     for e in 0..n as usize {
                         let s = slots[e] as usize;
                         rate += g[e] * wall.node_v(s);
-                        wsum += g[e] * g[e] * wall.node_inv_mass(s);
+                        wsum += g[e] * g[e] * w_node;
                     }
                 }
                 Other::Rod { points, w } => {
@@ -394,8 +396,7 @@ impl ContactSet {
             match k.other {
                 Other::Wall { n, slots, g, .. } => {
                     for e in 0..n as usize {
-                        let s = slots[e] as usize;
-                        wall.add_node_v(s, g[e] * wall.node_inv_mass(s) * dl);
+                        wall.add_node_v(slots[e] as usize, g[e] * w_node * dl);
                     }
                 }
                 Other::Rod { points, w } => {

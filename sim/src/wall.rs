@@ -123,8 +123,7 @@ pub struct ActiveNode {
     /// Its rate, mm/s.
     pub v: f64,
     prev: f64,
-    /// Inverse mass (1/kg) and spring stiffness (N/m), its row's ([`Wall::node_mass_stiffness`]).
-    w: f64,
+    /// Spring stiffness (N/m), its row's ([`Wall::node_mass_stiffness`]).
     k: f64,
     /// Slots of the neighbours (row - 1, row + 1, column - 1, column + 1), or `AT_REST` /
     /// `NO_NEIGHBOUR`.
@@ -168,10 +167,10 @@ pub struct Wall {
     spoke_w: Vec<(u32, [f64; 3])>,
     /// Unit rest direction of every tip.
     dir: Vec<[f32; 3]>,
-    /// Per node row: the area of one of its nodes' patches of wall, mm^2; and a patch's at the
-    /// median radius (every node's mass).
+    /// Per node row: the area of one of its nodes' patches of wall, mm^2.
     row_area: Vec<f64>,
-    mid_area: f64,
+    /// Every node's mass, a patch's at the median radius, kg.
+    node_mass: f64,
     /// Rest spokes, relative to their control point.
     rest: Vec<[f32; 3]>,
     /// Control points (they never move).
@@ -221,17 +220,11 @@ impl Wall {
         // Each node row's patch: its rings' mean spoke length around, `per_row` rings along (the
         // padding rows take their neighbours'): an anal canal of 3 mm in a colon of 40 mm is a
         // wall a thirteenth as wide, and as soft.
+        let patch = |r: f64| per_row as f64 * spacing * std::f64::consts::TAU * r / cols as f64;
         let ring_r: Vec<f64> = (0..rings).map(|i| (0..spokes).map(|k| norm3(tube.radial[i * spokes + k])).sum::<f64>() / spokes as f64).collect();
-        let mut row_area: Vec<f64> = std::iter::once(0.0)
-            .chain(block_rings.iter().map(|&(a, b)| {
-                let r = if a < b { ring_r[a as usize..b as usize].iter().sum::<f64>() / (b - a) as f64 } else { r_med };
-                per_row as f64 * spacing * std::f64::consts::TAU * r.max(1e-3) / cols as f64
-            }))
-            .chain(std::iter::once(0.0))
-            .collect();
-        let mid_area = per_row as f64 * spacing * std::f64::consts::TAU * r_med / cols as f64;
-        row_area[0] = row_area[1];
-        row_area[rows - 1] = row_area[rows - 2];
+        let mut row_area: Vec<f64> = block_rings.iter().map(|&(a, b)| patch(if a < b { ring_r[a as usize..b as usize].iter().sum::<f64>() / (b - a) as f64 } else { r_med }.max(1e-3))).collect();
+        row_area.insert(0, row_area[0]);
+        row_area.push(row_area[rows - 2]);
         let blocks = block_rows * cols;
         let ring_w = (0..rings)
             .map(|i| {
@@ -259,7 +252,7 @@ impl Wall {
             .collect();
         Self {
             row_area,
-            mid_area,
+            node_mass: params.areal_mass_kg_m2 * 1e-6 * patch(r_med),
             params,
             rings,
             spokes,
@@ -301,8 +294,7 @@ impl Wall {
     /// Mass (kg) and spring stiffness (N/m) of a node of row `row`: `rho_A A_med` and `K_p A`,
     /// `A` the row's patch of wall and `A_med` a patch at the colon's median radius.
     pub fn node_mass_stiffness(&self, row: usize) -> (f64, f64) {
-        let a = self.row_area[row.min(self.rows - 1)];
-        (self.params.areal_mass_kg_m2 * 1e-6 * self.mid_area, self.params.stiffness_kpa_per_mm * a)
+        (self.node_mass, self.params.stiffness_kpa_per_mm * self.row_area[row.min(self.rows - 1)])
     }
 
     /// The active nodes, in activation order.
@@ -400,8 +392,8 @@ impl Wall {
             return s as usize;
         }
         let s = self.active.len();
-        let (m, k) = self.node_mass_stiffness(node as usize / self.cols);
-        self.active.push(ActiveNode { node, u: 0.0, v: 0.0, prev: 0.0, w: 1.0 / m, k, nb: [AT_REST; 4], touched: false });
+        let k = self.node_mass_stiffness(node as usize / self.cols).1;
+        self.active.push(ActiveNode { node, u: 0.0, v: 0.0, prev: 0.0, k, nb: [AT_REST; 4], touched: false });
         self.slot[node as usize] = s as u32;
         s
     }
@@ -470,21 +462,21 @@ impl Wall {
         }
     }
 
-    /// Inverse mass of active node `slot`, 1/kg.
-    #[inline]
-    pub fn node_inv_mass(&self, slot: usize) -> f64 {
-        self.active[slot].w
+    /// Inverse mass of a node, 1/kg.
+    pub fn node_inv_mass(&self) -> f64 {
+        1.0 / self.node_mass
     }
 
     /// Projects the springs, the membrane and the range once.
     pub fn solve(&mut self, h: f64) {
+        let w = 1.0 / self.node_mass;
         let ih2 = 1.0 / (h * h);
         let ratio = self.params.membrane_ratio;
         // A membrane edge between two rows: the mean of their stiffnesses.
         let a_edge = |k: f64| ih2 / (ratio * k).max(1e-12);
         let hi = self.params.max_out_mm;
         for s in 0..self.active.len() {
-            let ActiveNode { u, w, k, nb, .. } = self.active[s];
+            let ActiveNode { u, k, nb, .. } = self.active[s];
             self.active[s].u = u - u * (w / (w + ih2 / k));
             for &o in &nb {
                 if o == NO_NEIGHBOUR {
@@ -496,9 +488,9 @@ impl Wall {
                 } else if (o as usize) > s {
                     let b = self.active[o as usize];
                     let ua = self.active[s].u;
-                    let dl = -(ua - b.u) / (w + b.w + a_edge(0.5 * (k + b.k)));
+                    let dl = -(ua - b.u) / (2.0 * w + a_edge(0.5 * (k + b.k)));
                     self.active[s].u = ua + w * dl;
-                    self.active[o as usize].u = b.u - b.w * dl;
+                    self.active[o as usize].u = b.u - w * dl;
                 }
             }
         }
